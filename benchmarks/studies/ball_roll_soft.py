@@ -25,9 +25,10 @@ SIDE = 0.48
 
 
 def roll_setup(n_grid: int, R: float = 0.03, v0: float = 0.5, mu: float = 0.5, slab: str = "elastic",
-               spin: float = 1.0):
+               spin: float = 1.0, block: bool = False):
     """The scene of the module notes (body 0 the ball, body 1 the slab); ``spin`` the given ``w R / v0`` (1: rolling,
-    0: thrown sliding)."""
+    0: thrown sliding); ``block``: a third body, a rigid 4 x 4 x 3 cm block resting on the slab's far end (round
+    65: three bodies take the many-body solve, ``gasp_core.mpm.rigid_pairs``)."""
     from gasp_core.seam.setup import Boundary, Material, SimSetup
     from gasp_core.testing.helpers import box_points, sphere_points
     dx = SIDE / n_grid
@@ -35,16 +36,18 @@ def roll_setup(n_grid: int, R: float = 0.03, v0: float = 0.5, mu: float = 0.5, s
     xb, pvb = sphere_points(c0, R, dx / 2)
     xs, pvs = box_points([-0.12, -0.08, 0.0], [0.20, 0.08, 0.03], dx / 2)
     w = np.array([0.0, spin * v0 / R, 0.0])
-    x = np.concatenate([xb, xs])
+    parts = [xb, xs] + ([box_points([0.12, -0.02, 0.03], [0.16, 0.02, 0.06], dx / 2)[0]] if block else [])
+    x = np.concatenate(parts)
     v = np.zeros_like(x)
     v[:len(xb)] = np.array([v0, 0.0, 0.0]) + np.cross(w, xb - c0)
     C = np.zeros((len(x), 3, 3))
     C[:len(xb)] = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
     mats = [Material("jelly", model="rigid", E=1.0e5, nu=0.3, rho=1000.0, friction=mu),
             Material("jelly", model=slab, E=1.0e5, nu=0.3, rho=1000.0, friction=mu)]
+    mats += mats[:1] if block else []
     lo = np.array([-0.20, -SIDE / 2, -3 * dx])
-    s = SimSetup(x=x, v=v, p_vol=np.r_[np.full(len(xb), pvb), np.full(len(xs), pvs)],
-                 body_id=np.r_[np.zeros(len(xb), int), np.ones(len(xs), int)], materials=mats,
+    s = SimSetup(x=x, v=v, p_vol=np.r_[np.full(len(xb), pvb), np.full(len(x) - len(xb), pvs)],
+                 body_id=np.concatenate([np.full(len(p), k) for k, p in enumerate(parts)]), materials=mats,
                  gravity=np.array([0.0, 0.0, -9.81]), domain_lo=lo, domain_hi=lo + SIDE, n_grid=n_grid,
                  frame_dt=1.0 / 240.0, boundaries=[Boundary("ground", height=0.0, friction=0.0)], C=C)
     s.n_render = 0
@@ -62,12 +65,12 @@ def ball_state(X: np.ndarray, V: np.ndarray, R: float) -> tuple[np.ndarray, floa
 
 
 def measure_roll(engine: str, n_grid: int, R: float = 0.03, v0: float = 0.5, mu: float = 0.5,
-                 slab: str = "elastic", T: float = 0.2, spin: float = 1.0) -> dict:
+                 slab: str = "elastic", T: float = 0.2, spin: float = 1.0, block: bool = False) -> dict:
     """``{"v": (first frame, last), "spin": (first, last) (w R, m/s), "rise": mm}`` of :func:`roll_setup` run for
     ``T`` s on ``engine``."""
     from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import get_engine
-    s = roll_setup(n_grid, R, v0, mu, slab, spin)
+    s = roll_setup(n_grid, R, v0, mu, slab, spin, block)
     nb = int(np.sum(np.asarray(s.body_id) == 0))
     e = build_engine(get_engine(engine), s)
     rows = []
@@ -87,6 +90,7 @@ def main() -> None:
     ap.add_argument("--radius", type=float, nargs="+", default=[0.03])
     ap.add_argument("--T", type=float, default=0.2)
     ap.add_argument("--spin", type=float, default=1.0, help="the given w R / v0 (0: thrown sliding)")
+    ap.add_argument("--block", action="store_true", help="a third body: a rigid block on the slab's far end")
     a = ap.parse_args()
     print("| engine | n_grid | R (cm) | slab | mu | v (m/s): start -> end | w R (m/s): start -> end | rise (mm) |")
     print("|---|---|---|---|---|---|---|---|")
@@ -94,7 +98,7 @@ def main() -> None:
         for R in a.radius:
             for slab in a.slab:
                 for mu in a.mu:
-                    r = measure_roll(a.engine, n, R, 0.5, mu, slab, a.T, a.spin)
+                    r = measure_roll(a.engine, n, R, 0.5, mu, slab, a.T, a.spin, a.block)
                     print(f"| {a.engine} | {n} | {100 * R:g} | {slab} | {mu:g} | {r['v'][0]:.3f} -> {r['v'][1]:.3f} "
                           f"| {r['spin'][0]:.3f} -> {r['spin'][1]:.3f} | {r['rise']:+.2f} |", flush=True)
 

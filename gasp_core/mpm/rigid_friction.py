@@ -184,16 +184,14 @@ def coulomb_friction(V, w, inertia, M: float, c, n, x_f, v_sup, budget: float, J
     return V - (p / M) * t, w + inv @ (-p * rt + held * rh)
 
 
-def pair_contact(A, B, x_c, n, mu: float):
+def pair_contact(A, B, x_c, n, mu: float, flat=1.0, plane=None):
     """The contact of two rigid bodies as one, by force balance (issue 67 item 4; the NumPy reference of each grid
     plugin's ``pair_contact``): the substep's normal impulse, then Coulomb's friction of it, both equal and opposite.
 
     The two bodies meet through the two-field contact's nodes (:func:`gasp_core.mpm.fields.rigid_pair`), which
     here only find where they touch: ``x_c`` the touching nodes' centre and ``n`` their mean normal (field B's mass
-    gradient, from A into B), each node weighted by its reduced mass ``m_A m_B / m``. The nodes' own velocity
-    correction, spread over a rigid body by its projection, held the upper of two blocks as a soft spring: it sank
-    into the lower block at ``M g dt / sum m_red`` (6 cm/s at n_grid 32) and so pressed on it, and rubbed on it, with
-    12 % less than its weight. Here, after both bodies' projection:
+    gradient, from A into B), each node weighted by its reduced mass ``m_A m_B / m`` (the nodes' own correction held
+    a block on a block as a soft spring, ``docs/rigid.md``). Here, after both bodies' projection:
 
     * **normal**: the approach of the two mass centres along ``n``, ``u_n = (V_A - V_B) . n``, is removed by the
       impulse ``P = u_n / (1/M_A + 1/M_B)`` through the centres (none when they separate): the inelastic contact of a
@@ -204,6 +202,11 @@ def pair_contact(A, B, x_c, n, mu: float):
       ``n``, as ``twist_brake`` turns it; its tipping moment held by the contact, as :func:`coulomb_friction` holds
       a face's), when that is within
       ``mu P`` (they stick), else ``mu P`` against it (they slide at the kinetic rate). No speed threshold.
+    * **rolling** (round 65): the friction's tipping moment (``r x t`` across ``n``) is held only as far as the
+      contact is a face on a face: the pair's flatness ``f`` (``rigid_support.pair_flatness``: 0 when either body is
+      round there) leaves ``(1 - f)`` of it to turn each body through its full inverse inertia, and ``k`` takes the
+      same ``(1 - f)`` terms (the effective mass at the contact point): a ball thrown sliding on a block spins up and
+      rolls, on its surface (``plane``). ``f`` 1 adds exact zeros (a block on a block bit for bit as before).
 
     Parameters
     ----------
@@ -216,6 +219,13 @@ def pair_contact(A, B, x_c, n, mu: float):
         The contact's unit normal, from A into B.
     mu : float
         The pair's coefficient (:func:`gasp_core.mpm.fields.field_friction`).
+    flat : float or callable
+        The pair's flatness in [0, 1], or a function of the unit slip ``t`` (shape (3,)) giving it
+        (``rigid_support.pair_flatness``); 1: a face on a face (the law before round 65).
+    plane : float or None
+        Where the bodies' surfaces meet, ``n . x`` (m; ``rigid_support.contact_plane``): with ``f < 1`` the contact
+        point is moved along ``n`` onto it (the lever of a rolling body's friction reaches its surface) and the slip
+        taken there. None: at ``x_c``.
 
     Returns
     -------
@@ -235,7 +245,21 @@ def pair_contact(A, B, x_c, n, mu: float):
     if P <= 0.0 or mu <= 0.0 or lt <= 0.0:
         return (VA, wA), (VB, wB), P
     t = ut / lt
+    f = float(flat(t)) if callable(flat) else float(flat)
+    if f < 1.0 and plane is not None:   # a round body rolls on its surface: the contact point moved onto it
+        x_c = x_c + (plane - float(np.dot(x_c, n))) * n
+        rA, rB = x_c - cA, x_c - cB
+        u = VA + np.cross(wA, rA) - VB - np.cross(wB, rB)
+        ut = u - np.dot(u, n) * n
+        lt = float(np.linalg.norm(ut))
+        if lt <= 0.0:
+            return (VA, wA), (VB, wB), P
+        t = ut / lt
     sA, sB = float(np.dot(np.cross(rA, t), n)), float(np.dot(np.cross(rB, t), n))   # the twist arms about n
-    k = 1.0 / MA + 1.0 / MB + sA * sA / nIA + sB * sB / nIB
+    tA, tB = np.cross(rA, t), np.cross(rB, t)
+    gA = (1.0 - f) * (np.linalg.inv(np.asarray(IA, np.float64)) @ (tA - sA * n))   # the tipping part let turn
+    gB = (1.0 - f) * (np.linalg.inv(np.asarray(IB, np.float64)) @ (tB - sB * n))
+    k = 1.0 / MA + 1.0 / MB + sA * sA / nIA + sB * sB / nIB + (float(gA @ tA) + float(gB @ tB))
     p = min(lt / k, mu * P)
-    return ((VA - (p / MA) * t, wA - (p * sA / nIA) * n), (VB + (p / MB) * t, wB + (p * sB / nIB) * n), P)
+    return ((VA - (p / MA) * t, wA - (p * sA / nIA) * n - p * gA),
+            (VB + (p / MB) * t, wB + (p * sB / nIB) * n + p * gB), P)

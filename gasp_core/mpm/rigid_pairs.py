@@ -76,6 +76,32 @@ def pair_data(setup) -> tuple:
     return body_boxes(setup), pair_frictions(setup), rc
 
 
+def support_data(setup):
+    """``(dirs, h, curv, delta, nd)``: every rigid body's support table (round 65,
+    ``gasp_core.mpm.rigid_support.support_table``, of its points with mass; spacing ``p_vol ** (1/3)``), body ``b``'s
+    rows ``b * nd`` to ``(b + 1) * nd``: directions (n, 3), supports (n,) m, curvature tensors (n, 3, 3) 1/m, and the
+    band per body (m; 0: no table, its contacts taken as a face's). None with fewer than two rigid bodies."""
+    from gasp_core.mpm.rigid import body_frames, rigid_mask
+    from gasp_core.mpm.rigid_support import support_table, table_directions
+    rigid = rigid_mask(setup.materials)
+    if rigid.sum() < 2:
+        return None
+    n = len(setup.x)
+    body = np.broadcast_to(np.asarray(setup.body_id), (n,))
+    vol = np.broadcast_to(np.asarray(setup.p_vol, np.float64), (n,))
+    mass = np.broadcast_to(np.asarray(setup.p_mass, np.float64), (n,))
+    X0 = body_frames(setup.x, mass, body, rigid)[1]
+    nb, nd = len(rigid), len(table_directions(np.zeros((1, 3))))
+    dirs, h, curv, delta = np.zeros((nb * nd, 3)), np.ones(nb * nd), np.zeros((nb * nd, 3, 3)), np.zeros(nb)
+    for b in np.flatnonzero(rigid):
+        sel = (body == b) & (mass > 0.0)
+        if sel.any():
+            D, H, C, delta[b] = support_table(X0[sel], float(np.mean(vol[sel])) ** (1.0 / 3.0))
+            rows = slice(b * nd, (b + 1) * nd)
+            dirs[rows], h[rows], curv[rows] = D, H, C[:, [0, 1, 2, 1, 3, 4, 2, 4, 5]].reshape(-1, 3, 3)
+    return dirs, h, curv, delta, nd
+
+
 def body_boxes(setup) -> np.ndarray:
     """Each rigid body's box in its frame at the start: its material points' extent about its mass centre (m), shape
     (n_bodies, 2, 3) (lower, upper; an empty box, lower > upper, for the others)."""
@@ -106,9 +132,12 @@ def node_bodies(xn, in_a, rigid, centre, rot, boxes, pad: float):
     return best[0][0], best[1][0]
 
 
-def _pair_update(A, B, x_c, n, mu, lam):
+def _pair_update(A, B, x_c, n, mu, lam, flat=1.0, plane=None):
     """One pair's update within a sweep (:func:`solve_pairs`): ``A``, ``B`` lists ``[V, w, I, M, c]`` changed in place;
-    ``lam`` ``[P, J (3,)]``, the pair's accumulated normal impulse (kg m/s) and friction impulse on B, changed."""
+    ``lam`` ``[P, J (3,)]``, the pair's accumulated normal impulse (kg m/s) and friction impulse on B, changed.
+    Round 65: ``flat`` and ``plane`` as ``rigid_friction.pair_contact``'s (the flatness along the slip, or along the
+    bodies' relative rolling where they do not slip): ``(1 - f)`` of the friction's tipping moment turns the bodies,
+    and the faces hold ``f`` of their relative tipping spin (a ball rolls on a block; a block on a block as before)."""
     VA, wA, IA, MA, cA = A
     VB, wB, IB, MB, cB = B
     un = float(np.dot(VA - VB, n))
@@ -119,21 +148,52 @@ def _pair_update(A, B, x_c, n, mu, lam):
     u = A[0] + np.cross(wA, rA) - B[0] - np.cross(wB, rB)
     ut = u - np.dot(u, n) * n
     lt = float(np.linalg.norm(ut))
+    f = _roll_flatness(flat, ut, lt, wA - wB, n)
+    if f < 1.0 and plane is not None:   # a round body rolls on its surface: the contact point moved onto it
+        x_c = x_c + (plane - float(np.dot(x_c, n))) * n
+        rA, rB = x_c - cA, x_c - cB
+        u = A[0] + np.cross(wA, rA) - B[0] - np.cross(wB, rB)
+        ut = u - np.dot(u, n) * n
+        lt = float(np.linalg.norm(ut))
     J = lam[1].copy()
+    iA, iB = np.linalg.inv(IA), np.linalg.inv(IB)
     if mu > 0.0 and lt > 0.0 and P > 0.0:   # the impulse that stops the slip, added to the pair's
         t = ut / lt
         sA, sB = float(np.dot(np.cross(rA, t), n)), float(np.dot(np.cross(rB, t), n))   # the twist arms about n
-        J = J + (lt / (1.0 / MA + 1.0 / MB + sA * sA / float(n @ IA @ n) + sB * sB / float(n @ IB @ n))) * t
+        k = 1.0 / MA + 1.0 / MB + sA * sA / float(n @ IA @ n) + sB * sB / float(n @ IB @ n)
+        if f < 1.0:   # (1 - f) of the tipping moment turns each body: in the effective mass
+            tA, tB = np.cross(rA, t), np.cross(rB, t)
+            k = k + (1.0 - f) * (float(tA @ iA @ (tA - np.dot(tA, n) * n)) + float(tB @ iB @ (tB - np.dot(tB, n) * n)))
+
+        J = J + (lt / k) * t
     lJ = float(np.linalg.norm(J))
     if lJ > mu * P:   # within Coulomb's disk of the pair's normal impulse: stick, else slide at mu P
         J = J * (max(mu, 0.0) * P / lJ)
     _friction(A, B, rA, rB, n, J - lam[1])
+    if f < 1.0:
+        hA, hB = np.cross(rA, J - lam[1]), np.cross(rB, J - lam[1])
+        A[1] = A[1] - (1.0 - f) * (iA @ (hA - np.dot(hA, n) * n))
+        B[1] = B[1] + (1.0 - f) * (iB @ (hB - np.dot(hB, n) * n))
     lam[1] = J
     if P > 0.0:   # the faces hold the relative tipping spin (about the axes across n): an equal and opposite torque
-        iA, iB = np.linalg.inv(IA), np.linalg.inv(IB)
         dw = A[1] - B[1]
         L = np.linalg.solve(iA + iB, dw - np.dot(dw, n) * n)
+        if f < 1.0:   # as far as the contact is a face on a face (round 65)
+            L = f * L
         A[1], B[1] = A[1] - iA @ L, B[1] + iB @ L
+
+
+def _roll_flatness(flat, ut, lt: float, dw, n) -> float:
+    """The pair's flatness (``flat``, a number or a function of the unit direction) along the slip ``ut`` (``lt`` its
+    length) or, without slip, along the bodies' relative rolling ``(dw x n)`` (``dw`` their relative spin); 1 with
+    neither."""
+    if not callable(flat):
+        return float(flat)
+    roll = np.cross(dw - np.dot(dw, n) * n, n)
+    lr = float(np.linalg.norm(roll))
+    if lt > 0.0:
+        return float(flat(ut / lt))
+    return float(flat(roll / lr)) if lr > 0.0 else 1.0
 
 
 def _friction(A, B, rA, rB, n, dJ):
@@ -154,7 +214,8 @@ def solve_pairs(bodies, contacts, gravity, sweeps: int = SWEEPS):
         (3, 3), APIC's ``M dx^2 / 2`` included), mass (kg), mass centre (m, (3,)).
     contacts : list of tuple
         Per touching pair ``(a, b, x_c, n, mu)``: the body of field A and of B, the contact's centre (m, (3,)), its
-        unit normal from A into B and the pair's coefficient.
+        unit normal from A into B and the pair's coefficient; round 65: optionally ``flat`` and ``plane`` after them
+        (``rigid_friction.pair_contact``'s; none: a face on a face).
     gravity : array_like, shape (3,)
         m/s^2: the pairs are swept in the order of ``-g . x_c``, bottom up.
     sweeps : int
@@ -170,6 +231,7 @@ def solve_pairs(bodies, contacts, gravity, sweeps: int = SWEEPS):
     lam = [[0.0, np.zeros(3)] for _ in contacts]
     for _ in range(int(sweeps)):
         for k in order:
-            a, b, x_c, n, mu = contacts[k]
-            _pair_update(state[a], state[b], np.asarray(x_c, float), np.asarray(n, float), float(mu), lam[k])
+            a, b, x_c, n, mu = contacts[k][:5]
+            _pair_update(state[a], state[b], np.asarray(x_c, float), np.asarray(n, float), float(mu), lam[k],
+                         *contacts[k][5:])
     return [(s[0], s[1]) for s in state], [float(p) for p, _ in lam]

@@ -14,7 +14,7 @@ import numpy as np
 from gasp_core.mpm.contact import (balance_mass, contact_coefficients, contact_model, contact_planes, contact_reach,
                                    flowing_bodies, rule_models, touch_dashpot_speed)
 from gasp_core.mpm.fields import field_setup
-from gasp_core.mpm.rigid_pairs import pair_data
+from gasp_core.mpm.rigid_pairs import pair_data, support_data
 from gasp_core.mpm.shared_fields import shared_field_warning
 from gasp_core.mpm.grid_engine import choose_dt, GridEngineBase, transfer_alpha
 from gasp_core.mpm.materials import JELLY, initial_Jp, material_table
@@ -235,7 +235,7 @@ class TaichiMPMEngine(GridEngineBase, StateClock):
         self.solver.set_restitution(body_table(setup), plane_table(setup, self.solver.n_planes), rest_speed(setup),
                                     face_counts(setup))
         self.solver.allocate_rigid_hold(*hold_setup(setup, setup.dx, flows, any_rigid), flows)
-        self.solver.set_pairs(*pair_data(setup))
+        self.solver.set_pairs(*pair_data(setup), support=support_data(setup))
 
     def _extras(self, setup: SimSetup) -> dict[str, Any]:
         """Colliders, forces and impulses for the solver (``gasp_core.colliders.model``); none: nothing."""

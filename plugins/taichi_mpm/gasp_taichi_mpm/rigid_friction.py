@@ -19,7 +19,50 @@ def flatness(s3, deep, h):
 
 class RigidFriction:
     """:meth:`twist_brake` and :meth:`slide_brake`, called by ``Rigid.rigid_update`` per body; :meth:`rigid_pair`,
-    the contact of two rigid bodies, after it (``Rigid.rigid_step``)."""
+    the contact of two rigid bodies, after it (``Rigid.rigid_step``), with round 65's support tables
+    (:meth:`set_support`, :meth:`body_row`, :meth:`flat_at`)."""
+
+    def set_support(self, data) -> None:
+        """The bodies' support tables (``gasp_core.mpm.rigid_pairs.support_data``: directions, supports, curvature
+        tensors, bands, rows per body ``nd``) as fields ``sup_*``; None: no table for any body (every band 0: every
+        contact a face's)."""
+        import numpy as np
+        if data is None:
+            nb = max(int(self.n_bodies), 1)
+            data = (np.zeros((nb, 3)), np.ones(nb), np.zeros((nb, 3, 3)), np.zeros(nb), 0)
+        dirs, h, curv, delta, self.sup_nd = data
+        self.sup_dirs = ti.Vector.field(3, ti.f64, shape=len(h))
+        self.sup_h = ti.field(ti.f64, shape=len(h))
+        self.sup_curv = ti.Matrix.field(3, 3, ti.f64, shape=len(h))
+        self.sup_delta = ti.field(ti.f64, shape=len(delta))
+        for f, a in ((self.sup_dirs, dirs), (self.sup_h, h), (self.sup_curv, curv), (self.sup_delta, delta)):
+            f.from_numpy(np.asarray(a, np.float64))
+
+    @ti.func
+    def body_row(self, b, R, d):
+        """The row of body ``b``'s table direction nearest to the world direction ``d`` at rotation ``R``
+        (``gasp_core.mpm.rigid_support._row``)."""
+        dl = R.transpose() @ d
+        best = 0
+        top = ti.cast(-2.0, ti.f64)
+        for i in range(self.sup_nd):
+            c = self.sup_dirs[b * self.sup_nd + i].dot(dl)
+            if c > top:
+                top = c
+                best = b * self.sup_nd + i
+        return best
+
+    @ti.func
+    def flat_at(self, b, row, R, t):
+        """Body ``b``'s flatness at its table row ``row`` along the slip ``t`` (``gasp_core.mpm.rigid_support.
+        body_flatness``): its surface's curvature there against its support (``rigid_support.flatness``)."""
+        f = ti.cast(1.0, ti.f64)
+        if self.sup_delta[b] > 0.0:
+            tl = R.transpose() @ t
+            kh = tl.dot(self.sup_curv[row] @ tl) * self.sup_h[row]
+            if kh * FLAT_TO > 1.0:
+                f = ti.min(ti.max((1.0 / kh - FLAT_FROM) / (FLAT_TO - FLAT_FROM), 0.0), 1.0)
+        return f
 
     @ti.func
     def twist_brake(self, b, w, inertia):
@@ -96,6 +139,28 @@ class RigidFriction:
         self.rb_deep[b] = 0.0
         return Vo, wo
 
+    @ti.func
+    def roll_flat(self, a, b, row_a, row_b, RA, RB, n, ut, lt, dw):
+        """``gasp_core.mpm.rigid_pairs._roll_flatness`` at the bodies' table rows towards each other: the pair's
+        flatness along the slip ``ut`` (``lt`` its length) or, without slip, along their relative rolling ``dw x n``;
+        1 with neither."""
+        f = ti.cast(1.0, ti.f64)
+        roll = (dw - dw.dot(n) * n).cross(n)
+        lr = roll.norm()
+        if lt > 0.0 or lr > 0.0:
+            t = roll / ti.max(lr, 1.0e-300)
+            if lt > 0.0:
+                t = ut / lt
+            f = ti.min(self.flat_at(a, row_a, RA, t), self.flat_at(b, row_b, RB, t))
+        return f
+
+    @ti.func
+    def roll_point(self, a, b, row_a, row_b, n, x_c):
+        """``x_c`` moved along ``n`` onto where the bodies' surfaces meet (``gasp_core.mpm.rigid_support.
+        contact_plane``; ``row_a``, ``row_b`` their table rows towards each other)."""
+        plane = 0.5 * (self.rb_c[a].dot(n) + self.sup_h[row_a] + self.rb_c[b].dot(n) - self.sup_h[row_b])
+        return x_c + (plane - x_c.dot(n)) * n
+
     @ti.kernel
     def rigid_pair(self):
         """The contact of two rigid bodies as one, by force balance (issue 67 item 4;
@@ -132,14 +197,35 @@ class RigidFriction:
                 if P > 0.0 and mu > 0.0 and lt > 0.0:
                     t = ut / lt
                     RA, RB = self.rb_R[a], self.rb_R[b]
+                    # round 65: a round body rolls (rigid_support.pair_flatness) on its surface (contact_plane)
+                    row_a, row_b = self.body_row(a, RA, n), self.body_row(b, RB, -n)
+                    f = ti.min(self.flat_at(a, row_a, RA, t), self.flat_at(b, row_b, RB, t))
+                    if f < 1.0:
+                        x_c = self.roll_point(a, b, row_a, row_b, n, x_c)
+                        rA, rB = x_c - self.rb_c[a], x_c - self.rb_c[b]
+                        u = VA + wA.cross(rA) - VB - wB.cross(rB)
+                        ut = u - u.dot(n) * n
+                        lt = ut.norm()
+                        t = ut / ti.max(lt, 1.0e-300)
                     nIA = n.dot(RA @ self.rb_I0[a] @ RA.transpose() @ n) + half * MA
                     nIB = n.dot(RB @ self.rb_I0[b] @ RB.transpose() @ n) + half * MB
                     sA, sB = rA.cross(t).dot(n), rB.cross(t).dot(n)   # the twist arms about n
-                    p = ti.min(lt / (1.0 / MA + 1.0 / MB + sA * sA / nIA + sB * sB / nIB), mu * P)
+                    k = 1.0 / MA + 1.0 / MB + sA * sA / nIA + sB * sB / nIB
+                    gA, gB = ti.Vector.zero(ti.f64, 3), ti.Vector.zero(ti.f64, 3)
+                    if f < 1.0:   # (1 - f) of the tipping moment turns each body through its full inverse inertia
+                        tA, tB = rA.cross(t), rB.cross(t)
+                        eye = half * ti.Matrix.identity(ti.f64, 3)
+                        gA = (1.0 - f) * ((RA @ self.rb_I0[a] @ RA.transpose() + MA * eye).inverse() @ (tA - sA * n))
+                        gB = (1.0 - f) * ((RB @ self.rb_I0[b] @ RB.transpose() + MB * eye).inverse() @ (tB - sB * n))
+                        k = k + (gA.dot(tA) + gB.dot(tB))
+                    p = ti.min(lt / k, mu * P)
                     VA -= (p / MA) * t
                     VB += (p / MB) * t
                     wA -= (p * sA / nIA) * n
                     wB += (p * sB / nIB) * n
+                    if f < 1.0:
+                        wA -= p * gA
+                        wB += p * gB
                 self.rb_c[a] += dt * (VA - self.rb_V[a])
                 self.rb_c[b] += dt * (VB - self.rb_V[b])
                 self.rb_V[a], self.rb_V[b], self.rb_w[a], self.rb_w[b] = VA, VB, wA, wB

@@ -32,11 +32,15 @@ class RigidPairs:
         self.pair_seen = ti.field(ti.i32, shape=ns)
         self.pair_sweeps = int(SWEEPS)
         self.pair_pad = float(NODE_PAD)
+        self.pair_rows = ti.field(ti.i32, shape=2 * ns)   # round 65: each slot's two table rows
+        self.set_support(None)   # round 65's tables: none until set_pairs
 
-    def set_pairs(self, boxes, mus, collider=None) -> None:
+    def set_pairs(self, boxes, mus, collider=None, support=None) -> None:
         """Each rigid body's box (``rigid_pairs.body_boxes``, shape (n_bodies, 2, 3), m) and each slot's ``mu``
-        (``pair_frictions``); nothing unless ``pair_many``. ``collider``: round 63's (rigid_collider.py)."""
+        (``pair_frictions``); nothing unless ``pair_many``. ``collider``: round 63's (rigid_collider.py); ``support``
+        round 65's tables (``rigid_pairs.support_data``, ``RigidFriction.set_support``)."""
         self.allocate_collider(collider)
+        self.set_support(support)
         if self.pair_many:
             self.pair_box.from_numpy(np.asarray(boxes, np.float64).reshape(-1, 3))
             self.pair_mu.from_numpy(np.asarray(mus, np.float64))
@@ -98,6 +102,10 @@ class RigidPairs:
             n_on = self.pair_n[None]
             for q in range(n_on):   # the touching pairs, bottom up
                 s = self.pair_slots[q]
+                nn = ti.Vector([self.pair_acc[7 * s + 4], self.pair_acc[7 * s + 5], self.pair_acc[7 * s + 6]])
+                nn = nn / ti.max(nn.norm(), 1.0e-300)   # round 65: the bodies' table rows towards each other
+                self.pair_rows[2 * s] = self.body_row(s // nb, self.rb_R[s // nb], nn)
+                self.pair_rows[2 * s + 1] = self.body_row(s - (s // nb) * nb, self.rb_R[s - (s // nb) * nb], -nn)
                 for c in ti.static(range(4)):
                     self.pair_lam[4 * s + c] = 0.0
                 h = self.pair_height(s, g)
@@ -130,7 +138,7 @@ class RigidPairs:
     @ti.func
     def pair_update(self, s, nb, half):
         """One pair's update within a sweep (``rigid_pairs._pair_update``): slot ``s``'s normal impulse kept >= 0,
-        its friction impulse within ``mu`` times it (the disk)."""
+        its friction impulse within ``mu`` times it (the disk); round 65: a round body rolls (``roll_flat``)."""
         a = s // nb
         b = s - a * nb
         n = ti.Vector([self.pair_acc[7 * s + 4], self.pair_acc[7 * s + 5], self.pair_acc[7 * s + 6]])
@@ -150,6 +158,17 @@ class RigidPairs:
             ut = u - u.dot(n) * n
             lt = ut.norm()
             RA, RB = self.rb_R[a], self.rb_R[b]
+            row_a, row_b = self.pair_rows[2 * s], self.pair_rows[2 * s + 1]   # round 65: a round body rolls
+            f = self.roll_flat(a, b, row_a, row_b, RA, RB, n, ut, lt, self.rb_w[a] - self.rb_w[b])
+            if f < 1.0:
+                x_c = self.roll_point(a, b, row_a, row_b, n, x_c)
+                rA, rB = x_c - self.rb_c[a], x_c - self.rb_c[b]
+                u = self.rb_V[a] + self.rb_w[a].cross(rA) - self.rb_V[b] - self.rb_w[b].cross(rB)
+                ut = u - u.dot(n) * n
+                lt = ut.norm()
+            eye = ti.Matrix.identity(ti.f64, 3)
+            iA = (RA @ self.rb_I0[a] @ RA.transpose() + half * MA * eye).inverse()
+            iB = (RB @ self.rb_I0[b] @ RB.transpose() + half * MB * eye).inverse()
             nIA = n.dot(RA @ self.rb_I0[a] @ RA.transpose() @ n) + half * MA
             nIB = n.dot(RB @ self.rb_I0[b] @ RB.transpose() @ n) + half * MB
             J0 = ti.Vector([self.pair_lam[4 * s + 1], self.pair_lam[4 * s + 2], self.pair_lam[4 * s + 3]])
@@ -158,7 +177,11 @@ class RigidPairs:
             if mu > 0.0 and lt > 0.0 and P > 0.0:
                 t = ut / lt
                 sA, sB = rA.cross(t).dot(n), rB.cross(t).dot(n)   # the twist arms about n
-                J = J + (lt / (1.0 / MA + 1.0 / MB + sA * sA / nIA + sB * sB / nIB)) * t
+                k = 1.0 / MA + 1.0 / MB + sA * sA / nIA + sB * sB / nIB
+                if f < 1.0:   # (1 - f) of the tipping moment turns each body: in the effective mass
+                    tA, tB = rA.cross(t), rB.cross(t)
+                    k = k + (1.0 - f) * (tA.dot(iA @ (tA - tA.dot(n) * n)) + tB.dot(iB @ (tB - tB.dot(n) * n)))
+                J = J + (lt / k) * t
             lJ = J.norm()
             if lJ > mu * P:   # Coulomb's disk of the pair's normal impulse: stick within, else slide on it
                 J = J * (ti.max(mu, 0.0) * P / lJ)
@@ -169,11 +192,14 @@ class RigidPairs:
             self.rb_V[b] += dJ / MB
             self.rb_w[a] -= (rA.cross(dJ).dot(n) / nIA) * n
             self.rb_w[b] += (rB.cross(dJ).dot(n) / nIB) * n
-            if P > 0.0:   # the faces hold the relative tipping spin (rigid_pairs._pair_update)
-                eye = ti.Matrix.identity(ti.f64, 3)
-                iA = (RA @ self.rb_I0[a] @ RA.transpose() + half * MA * eye).inverse()
-                iB = (RB @ self.rb_I0[b] @ RB.transpose() + half * MB * eye).inverse()
+            if f < 1.0:
+                hA, hB = rA.cross(dJ), rB.cross(dJ)
+                self.rb_w[a] -= (1.0 - f) * (iA @ (hA - hA.dot(n) * n))
+                self.rb_w[b] += (1.0 - f) * (iB @ (hB - hB.dot(n) * n))
+            if P > 0.0:   # the faces hold (f of) the relative tipping spin (rigid_pairs._pair_update)
                 dw = self.rb_w[a] - self.rb_w[b]
                 L = (iA + iB).inverse() @ (dw - dw.dot(n) * n)
+                if f < 1.0:
+                    L = f * L
                 self.rb_w[a] -= iA @ L
                 self.rb_w[b] += iB @ L

@@ -321,9 +321,12 @@ class RigidBodies:
                     self.rb_V, self.rb_w])]
         self._rigid_pose = out[-1]   # rigid_apply: every point of a rigid body on its pose
         if self.pair == 1:   # two rigid bodies: their contact as one, before their points take the pose
+            from gasp_core.mpm.rigid_pairs import support_data   # round 65: the bodies' support tables (rolling)
+            from .rigid_support import support_arrays
+            self.rb_tables = support_arrays(support_data(self.setup), d, len(self.setup.materials))
             out.insert(2, wp.launch(build_rigid_pair(Ft), dim=1, device=d, record_cmd=True, inputs=[
                 self.in_a, self.rb_M, self.rb_I0, self.rb_c, self.rb_R, self.rb_V, self.rb_w, dt, dx,
-                float(self.field_mu), self.pair_acc]))
+                float(self.field_mu), self.pair_acc, *self.rb_tables]))
         elif self.pair == 2:   # round 62: rigid bodies among three or more, their pairs solved together
             from .rigid_pairs import pairs_launch
             out.insert(2, pairs_launch(self, Ft))

@@ -12,6 +12,7 @@ import warp as wp
 from gasp_core.mpm.rigid_friction import FLAT_FROM, FLAT_TO
 
 from .precision import MODULE_OPTIONS, build_types
+from .rigid_support import body_inv, roll_flat, roll_point, slip_at, tip
 
 vec3d = wp.types.vector(3, wp.float64)
 FLAT_0 = wp.constant(wp.float64(FLAT_FROM))   # gasp_core.mpm.rigid_friction.contact_flatness's bounds
@@ -132,18 +133,17 @@ def build_rigid_contact(Ft):
 
 @functools.cache
 def build_rigid_pair(Ft):
-    """``rigid_pair`` (float64 whatever ``Ft``): the contact of two rigid bodies as one, by force balance (issue 67
-    item 4; the NumPy reference is ``gasp_core.mpm.rigid_friction.pair_contact``, taichi_mpm's ``RigidFriction.pair_contact`` the same steps),
-    one thread after ``rigid_update``: the touching nodes' sums ``acc`` (``fields.field_contact``: sum m_red,
-    sum m_red x, sum m_red n) give the contact's centre and normal; the mass centres' approach along it is removed
-    through the centres, then Coulomb's friction of that impulse at the centre; the centres' advance of the substep
-    follows the new velocities. ``acc`` is cleared."""
+    """``rigid_pair`` (float64; ``gasp_core.mpm.rigid_friction.pair_contact``, taichi_mpm's ``rigid_pair``), one thread
+    after ``rigid_update``: the contact from the nodes' sums ``acc`` (cleared), the approach removed through the
+    centres, Coulomb's friction (round 65: a round body rolls, the support tables ``t_*``); the centres advance."""
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def rigid_pair(in_a: wp.array(dtype=wp.int32), mass: wp.array(dtype=wp.float64),
                    inertia0: wp.array(dtype=mat33d), centre: wp.array(dtype=vec3d), rot: wp.array(dtype=mat33d),
                    vel: wp.array(dtype=vec3d), spin: wp.array(dtype=vec3d), dt: wp.float64, dx: wp.float64,
-                   mu: wp.float64, acc: wp.array(dtype=wp.float64)):
+                   mu: wp.float64, acc: wp.array(dtype=wp.float64), t_dirs: wp.array(dtype=vec3d),
+                   t_h: wp.array(dtype=wp.float64), t_curv: wp.array(dtype=mat33d), t_delta: wp.array(dtype=wp.float64),
+                   nd: int):
         a = int(1)
         if in_a[0] != 0:
             a = 0
@@ -175,16 +175,33 @@ def build_rigid_pair(Ft):
                 t = ut / lt
                 RA = rot[a]
                 RB = rot[b]
+                # round 65: a round body rolls (gasp_core.mpm.rigid_support.pair_flatness) on its surface
+                # (contact_plane): the contact point moved onto it, the slip taken there; f 1 as before
+                f = roll_flat(t_dirs, t_h, t_curv, t_delta, nd, a, b, RA, RB, n, ut, lt, vec3d())
+                if f < wp.float64(1.0):
+                    x_c = roll_point(t_dirs, t_h, nd, a, b, RA, RB, centre[a], centre[b], n, x_c)
+                    rA, rB, ut = slip_at(x_c, VA, wA, centre[a], VB, wB, centre[b], n)
+                    lt = wp.length(ut)
+                    t = ut / wp.max(lt, wp.float64(1.0e-300))
                 nIA = wp.dot(n, RA * inertia0[a] * wp.transpose(RA) * n) + wp.float64(0.5) * dx * dx * MA
                 nIB = wp.dot(n, RB * inertia0[b] * wp.transpose(RB) * n) + wp.float64(0.5) * dx * dx * MB
                 sA = wp.dot(wp.cross(rA, t), n)   # the twist arms about n
                 sB = wp.dot(wp.cross(rB, t), n)
                 k = wp.float64(1.0) / MA + wp.float64(1.0) / MB + sA * sA / nIA + sB * sB / nIB
+                gA = vec3d()   # (1 - f) of the tipping moment turns each body through its full inverse inertia
+                gB = vec3d()
+                if f < wp.float64(1.0):
+                    gA = tip(f, body_inv(inertia0[a], RA, MA, wp.float64(0.5) * dx * dx), wp.cross(rA, t), n)
+                    gB = tip(f, body_inv(inertia0[b], RB, MB, wp.float64(0.5) * dx * dx), wp.cross(rB, t), n)
+                    k = k + (wp.dot(gA, wp.cross(rA, t)) + wp.dot(gB, wp.cross(rB, t)))
                 p = wp.min(lt / k, mu * P)   # stick when within mu P, else slide at mu P
                 VA = VA - (p / MA) * t
                 VB = VB + (p / MB) * t
                 wA = wA - (p * sA / nIA) * n
                 wB = wB + (p * sB / nIB) * n
+                if f < wp.float64(1.0):
+                    wA = wA - p * gA
+                    wB = wB + p * gB
             centre[a] = centre[a] + dt * (VA - vel[a])
             centre[b] = centre[b] + dt * (VB - vel[b])
             vel[a] = VA

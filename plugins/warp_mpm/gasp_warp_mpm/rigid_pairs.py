@@ -12,6 +12,7 @@ import numpy as np
 import warp as wp
 
 from .precision import MODULE_OPTIONS, build_types
+from .rigid_support import body_row, roll_flat_at, roll_point_at, slip_at, tip
 
 vec3d = wp.types.vector(3, wp.float64)
 mat33d = wp.types.matrix((3, 3), wp.float64)
@@ -60,15 +61,16 @@ def build_node_slot(Ft):
 
 @functools.cache
 def build_pair_update(Ft):
-    """``pair_update`` (float64 whatever ``Ft``): one pair's update within a sweep (``gasp_core.mpm.rigid_pairs.
-    _pair_update``): slot ``s``'s accumulated normal impulse ``lam[4 s]`` kept >= 0, its friction impulse on B
-    ``lam[4 s + 1 : 4 s + 4]`` within ``mu`` times it (the disk), the faces' relative tipping spin held."""
+    """``pair_update`` (float64; ``gasp_core.mpm.rigid_pairs._pair_update``): slot ``s``'s normal impulse ``lam[4 s]``
+    >= 0, its friction on B ``lam[4 s + 1 : 4 s + 4]`` in the disk, ``f`` of the relative tipping spin held."""
 
     @wp.func
     def pair_update(s: int, nb: int, half: wp.float64, mass: wp.array(dtype=wp.float64),
                     inertia0: wp.array(dtype=mat33d), centre: wp.array(dtype=vec3d), rot: wp.array(dtype=mat33d),
                     vel: wp.array(dtype=vec3d), spin: wp.array(dtype=vec3d), mu: wp.array(dtype=wp.float64),
-                    acc: wp.array(dtype=wp.float64), lam: wp.array(dtype=wp.float64)):
+                    acc: wp.array(dtype=wp.float64), lam: wp.array(dtype=wp.float64), rows: wp.array(dtype=wp.int32),
+                    t_h: wp.array(dtype=wp.float64), t_curv: wp.array(dtype=mat33d),
+                    t_delta: wp.array(dtype=wp.float64)):
         a = s / nb
         b = s - a * nb
         n = vec3d(acc[7 * s + 4], acc[7 * s + 5], acc[7 * s + 6])
@@ -89,6 +91,13 @@ def build_pair_update(Ft):
             u = vel[a] + wp.cross(spin[a], rA) - vel[b] - wp.cross(spin[b], rB)
             ut = u - wp.dot(u, n) * n
             lt = wp.length(ut)
+            # round 65: a round body rolls (rigid_pairs._pair_update's flat and plane)
+            f = roll_flat_at(t_h, t_curv, t_delta, a, b, rows[2 * s], rows[2 * s + 1], rot[a], rot[b], n, ut, lt,
+                             spin[a] - spin[b])
+            if f < wp.float64(1.0):
+                x_c = roll_point_at(t_h, rows[2 * s], rows[2 * s + 1], centre[a], centre[b], n, x_c)
+                rA, rB, ut = slip_at(x_c, vel[a], spin[a], centre[a], vel[b], spin[b], centre[b], n)
+                lt = wp.length(ut)
             eye = wp.identity(n=3, dtype=wp.float64)
             IA = rot[a] * inertia0[a] * wp.transpose(rot[a]) + half * MA * eye
             IB = rot[b] * inertia0[b] * wp.transpose(rot[b]) + half * MB * eye
@@ -101,7 +110,11 @@ def build_pair_update(Ft):
                 t = ut / lt
                 sA = wp.dot(wp.cross(rA, t), n)   # the twist arms about n
                 sB = wp.dot(wp.cross(rB, t), n)
-                J = J + (lt / (wp.float64(1.0) / MA + wp.float64(1.0) / MB + sA * sA / nIA + sB * sB / nIB)) * t
+                k = wp.float64(1.0) / MA + wp.float64(1.0) / MB + sA * sA / nIA + sB * sB / nIB
+                if f < wp.float64(1.0):   # (1 - f) of the tipping moment turns each body: in the effective mass
+                    k = k + (wp.dot(tip(f, wp.inverse(IA), wp.cross(rA, t), n), wp.cross(rA, t))
+                             + wp.dot(tip(f, wp.inverse(IB), wp.cross(rB, t), n), wp.cross(rB, t)))
+                J = J + (lt / k) * t
             lJ = wp.length(J)
             if lJ > m_s * P:   # Coulomb's disk of the pair's normal impulse: stick within, else slide on it
                 J = J * (wp.max(m_s, wp.float64(0.0)) * P / lJ)
@@ -113,11 +126,16 @@ def build_pair_update(Ft):
             vel[b] = vel[b] + dJ / MB
             spin[a] = spin[a] - (wp.dot(wp.cross(rA, dJ), n) / nIA) * n
             spin[b] = spin[b] + (wp.dot(wp.cross(rB, dJ), n) / nIB) * n
-            if P > wp.float64(0.0):   # the faces hold the relative tipping spin (rigid_pairs._pair_update)
-                iA = wp.inverse(IA)
-                iB = wp.inverse(IB)
+            iA = wp.inverse(IA)
+            iB = wp.inverse(IB)
+            if f < wp.float64(1.0):
+                spin[a] = spin[a] - tip(f, iA, wp.cross(rA, dJ), n)
+                spin[b] = spin[b] + tip(f, iB, wp.cross(rB, dJ), n)
+            if P > wp.float64(0.0):   # the faces hold (f of) the relative tipping spin (rigid_pairs._pair_update)
                 dw = spin[a] - spin[b]
                 L = wp.inverse(iA + iB) * (dw - wp.dot(dw, n) * n)
+                if f < wp.float64(1.0):
+                    L = f * L
                 spin[a] = spin[a] - iA * L
                 spin[b] = spin[b] + iB * L
 
@@ -145,10 +163,16 @@ def build_rigid_pairs(Ft):
                     spin: wp.array(dtype=vec3d), V0: wp.array(dtype=vec3d), dt: wp.float64, dx: wp.float64, nb: int,
                     mu: wp.array(dtype=wp.float64), acc: wp.array(dtype=wp.float64), lam: wp.array(dtype=wp.float64),
                     order: wp.array(dtype=wp.int32), gravity: vec3d, sweeps: int, slots: wp.array(dtype=wp.int32),
-                    count: wp.array(dtype=wp.int32), seen: wp.array(dtype=wp.int32)):
+                    count: wp.array(dtype=wp.int32), seen: wp.array(dtype=wp.int32), t_dirs: wp.array(dtype=vec3d),
+                    t_h: wp.array(dtype=wp.float64), t_curv: wp.array(dtype=mat33d),
+                    t_delta: wp.array(dtype=wp.float64), nd: int, rows: wp.array(dtype=wp.int32)):
         n_on = count[0]
         for q in range(n_on):   # the touching pairs, insertion-sorted by (-g . x_c, slot): bottom up, ties by slot
             s = slots[q]
+            nn = vec3d(acc[7 * s + 4], acc[7 * s + 5], acc[7 * s + 6])   # round 65: the bodies' table rows
+            nn = nn / wp.max(wp.length(nn), wp.float64(1.0e-300))
+            rows[2 * s] = body_row(t_dirs, nd, s / nb, rot[s / nb], nn)
+            rows[2 * s + 1] = body_row(t_dirs, nd, s - (s / nb) * nb, rot[s - (s / nb) * nb], -nn)
             for c in range(4):
                 lam[4 * s + c] = wp.float64(0.0)
             h = height(acc, s, gravity)
@@ -163,7 +187,8 @@ def build_rigid_pairs(Ft):
         half = wp.float64(0.5) * dx * dx
         for _sweep in range(sweeps):
             for q in range(n_on):
-                pair_update(order[q], nb, half, mass, inertia0, centre, rot, vel, spin, mu, acc, lam)
+                pair_update(order[q], nb, half, mass, inertia0, centre, rot, vel, spin, mu, acc, lam, rows, t_h,
+                            t_curv, t_delta)
         for b in range(nb):
             centre[b] = centre[b] + dt * (vel[b] - V0[b])
         for q in range(n_on):   # the touching slots back to zero for the next substep
@@ -196,6 +221,7 @@ def allocate_pairs(eng, view) -> None:
     eng.pair_slots = wp.zeros(ns, dtype=wp.int32, device=d)   # round 63: the touching slots, listed by the node kernel
     eng.pair_n = wp.zeros(1, dtype=wp.int32, device=d)
     eng.pair_seen = wp.zeros(ns, dtype=wp.int32, device=d)
+    eng.pair_rows = wp.zeros(2 * ns, dtype=wp.int32, device=d)   # round 65: each slot's two table rows
 
 
 def slot_inputs(eng) -> list:
@@ -212,9 +238,13 @@ def slot_inputs(eng) -> list:
 
 
 def pairs_launch(eng, Ft):
-    """The recorded launch of ``rigid_pairs`` (``eng.pair`` 2), after the rigid update."""
-    from gasp_core.mpm.rigid_pairs import SWEEPS
+    """The recorded launch of ``rigid_pairs`` (``eng.pair`` 2), after the rigid update, with round 65's support tables
+    (``eng.rb_tables``)."""
+    from gasp_core.mpm.rigid_pairs import SWEEPS, support_data
+    from .rigid_support import support_arrays
+    eng.rb_tables = support_arrays(support_data(eng.setup), eng.device, len(eng.setup.materials))
     return wp.launch(build_rigid_pairs(Ft), dim=1, device=eng.device, record_cmd=True, inputs=[
         eng.rb_M, eng.rb_I0, eng.rb_c, eng.rb_R, eng.rb_V, eng.rb_w, eng.pair_V0, float(eng.dt), float(eng.dx),
         len(eng.setup.materials), eng.pair_mu, eng.pair_acc, eng.pair_lam, eng.pair_order,
-        vec3d(*[float(g) for g in eng.setup.gravity]), int(SWEEPS), eng.pair_slots, eng.pair_n, eng.pair_seen])
+        vec3d(*[float(g) for g in eng.setup.gravity]), int(SWEEPS), eng.pair_slots, eng.pair_n, eng.pair_seen,
+        *eng.rb_tables, eng.pair_rows])

@@ -82,6 +82,7 @@ LOOP_BOUNDS = {
     "range(fixed_lo.shape[0])": "the held (fixed) boxes",
     "range(n_bodies)": "the rigid bodies (one thread a point, rigid_hold)",
     "range(nb)": "the bodies (round 62: node_slot at a touching node; rigid_pairs' one thread)",
+    "range(nd)": "a rigid body's support table's 268 directions (round 65: the pair laws' one thread)",
     "range(ns)": "the rigid collider's slots, the scene's rigid bodies (round 64: rigid_collider.owner at a shared "
                  "node, as node_slot's range(nb))",
     "range(sweeps)": "the pairs' sweeps, rigid_pairs.SWEEPS (8; round 62)",

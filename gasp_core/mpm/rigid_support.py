@@ -1,0 +1,149 @@
+"""A rigid body's support table (issue 67 items 2 and 4, round 65): how round or flat the body is where it meets
+another rigid body, read from its own points (``docs/rigid.md`` "Round 65: rolling between rigid bodies").
+
+The ground's law tells a ball from a face by the contact's patch (``rigid_friction.contact_flatness``: the normal
+impulses' spread ``s^2`` along the slip against the deepest point's depth ``d``, ``rho = 3 s^2 / d``). Two rigid
+bodies meet through the grid's nodes, which hold no such patch; the body's own points do. Pressed a depth ``delta``
+into a plane of outward normal ``d``, a solid body of radius of curvature ``rho`` there overlaps it on a cap whose
+points (a column ``delta - r^2 / (2 rho)`` high at the distance ``r`` from its centre) spread along a line in it with
+variance ``rho delta / 3`` (the ground's reading, ``rho = 3 s^2 / delta``), and the points' depth grows as ``q^2 /
+(2 rho)`` with their offset ``q`` across the normal. So,
+once per body at build time (:func:`support_table`), over a set of unit directions ``d`` in its rest frame: the
+support ``h(d)`` (its farthest point along ``d`` from its mass centre, plus half a point spacing: the lattice's
+surface) and the curvature of its surface there, fitted to its points within ``delta`` of that plane
+(:func:`band_curvature`: their depth against their offset across ``d``; the band's spread ``3 s^2 / delta`` read a
+narrow lattice face as partly round); and in the pair law (:func:`pair_flatness`): each body's direction towards
+the other, its nearest table direction, the curvature ``1 / rho`` along the slip ``t``, and the body's flatness
+``clip((rho / h - FLAT_FROM) / (FLAT_TO - FLAT_FROM), 0, 1)`` (:func:`flatness`). A pair is a face on a face (its
+tipping moment held, ``f`` 1) only when both bodies are flat there: the smaller of the two.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .rigid_friction import FLAT_FROM, FLAT_TO
+
+#: The number of Fibonacci directions of a table (the rest-frame axes and the body's principal axes are added).
+N_DIRS = 256
+#: The band's depth in point spacings: the fit's points (a lattice ball of radius 3-9 spacings read round along
+#: 81-92 % of its table's directions and slips at 1.5 spacings, 95-98 % at 2.5, 99.4-100 % at 3.5; R 3 and 4.5 cm
+#: at dx 1-2 cm; a box's faces read flat at each).
+BAND = 3.5
+
+
+def table_directions(X0: np.ndarray, n: int = N_DIRS) -> np.ndarray:
+    """``(n + 12, 3)`` unit directions: ``n`` on a Fibonacci sphere, the rest frame's six axes and the six of the
+    points' principal axes (a box's face normals wherever it was set down)."""
+    k = np.arange(n) + 0.5
+    z = 1.0 - 2.0 * k / n
+    phi = np.pi * (1.0 + 5.0 ** 0.5) * k
+    rxy = np.sqrt(1.0 - z * z)
+    fib = np.stack([rxy * np.cos(phi), rxy * np.sin(phi), z], axis=1)
+    X0 = np.asarray(X0, np.float64)
+    _, vecs = np.linalg.eigh(X0.T @ X0 if len(X0) else np.eye(3))
+    return np.concatenate([fib, np.eye(3), -np.eye(3), vecs.T, -vecs.T])
+
+
+def support_table(X0: np.ndarray, spacing: float, n: int = N_DIRS):
+    """A body's support table (module notes).
+
+    Parameters
+    ----------
+    X0 : ndarray, shape (k, 3)
+        The body's points about its mass centre in its rest frame, m.
+    spacing : float
+        The points' spacing, m (``p_vol ** (1/3)``).
+    n : int
+        The number of Fibonacci directions.
+
+    Returns
+    -------
+    dirs : ndarray, shape (n + 12, 3)
+        Unit directions in the rest frame.
+    h : ndarray, shape (n + 12,)
+        The support along each, m (the farthest point plus ``spacing / 2``).
+    curv : ndarray, shape (n + 12, 6)
+        The surface's curvature tensor there (1/m; ``xx, xy, xz, yy, yz, zz`` in the rest frame, across ``d``):
+        :func:`band_curvature` of the points within ``BAND * spacing`` of the support plane.
+    delta : float
+        That band, m.
+    """
+    X0 = np.asarray(X0, np.float64)
+    dirs = table_directions(X0, n)
+    delta = BAND * float(spacing)
+    h = np.zeros(len(dirs))
+    curv = np.zeros((len(dirs), 6))
+    for i, d in enumerate(dirs):
+        q = X0 @ d
+        top = float(q.max())
+        K = band_curvature(X0[q >= top - delta], d, top)
+        h[i] = top + 0.5 * spacing
+        curv[i] = K[0, 0], K[0, 1], K[0, 2], K[1, 1], K[1, 2], K[2, 2]
+    return dirs, h, curv, delta
+
+
+def band_curvature(P: np.ndarray, d: np.ndarray, top: float) -> np.ndarray:
+    """The curvature tensor (3, 3), 1/m, of the surface of outward normal ``d`` (unit) whose points within the band
+    are ``P`` (k, 3), m (``top`` the farthest's ``d . x``): the least-squares fit of their depth ``z = top - d . x``
+    to ``b + g . q + q^T A q / 2`` over their offsets ``q`` across ``d``, ``A`` embedded in 3D. A solid body's
+    surface of radius of curvature ``rho`` fills the band with points whose depth grows as ``q^2 / (2 rho)``; a
+    face's lattice layers (the same points across ``d`` at each depth) give ``A`` 0 whatever the face's width, and a
+    face the table's direction misses by a few degrees a tilt ``g``, not a curvature. (The band's spread, ``rho = 3
+    s^2 / delta``, the ground's reading, is a face's lower bound: a 6 x 6 x 3 cm block at n_grid 24 read 0.95.)"""
+    e1 = np.cross(d, [1.0, 0.0, 0.0] if abs(d[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(d, e1)
+    r = P - P.mean(axis=0)
+    a, b = r @ e1, r @ e2
+    F = np.stack([np.ones_like(a), a, b, 0.5 * a * a, a * b, 0.5 * b * b], axis=1)
+    c = np.linalg.lstsq(F, top - P @ d, rcond=1e-12)[0]
+    T = np.stack([e1, e2], axis=1)
+    return T @ np.array([[c[3], c[4]], [c[4], c[5]]]) @ T.T
+
+
+def _row(table, R, d_world) -> int:
+    """The table's direction nearest to the world direction ``d_world`` for the body at rotation ``R``."""
+    return int(np.argmax(table[0] @ (np.asarray(R, np.float64).T @ np.asarray(d_world, np.float64))))
+
+
+def support(table, R, d_world) -> float:
+    """The body's support towards the world direction ``d_world`` (unit), m: its nearest table direction's."""
+    return float(table[1][_row(table, R, d_world)])
+
+
+def contact_plane(table_a, R_a, c_a, table_b, R_b, c_b, n) -> float:
+    """Where two touching bodies' surfaces meet along ``n`` (unit, from A into B), as ``n . x`` (m): midway between
+    A's support plane towards ``n`` and B's towards ``-n`` (``c_a``, ``c_b`` their mass centres, m). A round body
+    rolls on its surface: the lever of the friction's tipping moment reaches it (the touching nodes' centre, where
+    the pair law takes the contact, lay 2 mm (0.13 dx) above a ball's surface at n_grid 32)."""
+    n = np.asarray(n, np.float64)
+    return 0.5 * (float(np.dot(c_a, n)) + support(table_a, R_a, n) + float(np.dot(c_b, n)) - support(table_b, R_b, -n))
+
+
+def body_flatness(table, R: np.ndarray, d_world: np.ndarray, t_world: np.ndarray) -> float:
+    """One body's flatness (module notes) towards the world direction ``d_world`` (unit, out of the body towards the
+    other) along the slip ``t_world`` (unit), the body at rotation ``R`` (3, 3); ``table`` :func:`support_table`'s."""
+    dirs, h, curv, delta = table
+    R = np.asarray(R, np.float64)
+    i = _row(table, R, d_world)
+    t = R.T @ np.asarray(t_world, np.float64)
+    c = curv[i]
+    kappa = float(t @ np.array([[c[0], c[1], c[2]], [c[1], c[3], c[4]], [c[2], c[4], c[5]]]) @ t)
+    return flatness(kappa, float(h[i]))
+
+
+def flatness(kappa: float, h: float) -> float:
+    """``clip((rho / h - FLAT_FROM) / (FLAT_TO - FLAT_FROM), 0, 1)`` for the curvature ``kappa = 1 / rho`` (1/m) along
+    the slip and the support ``h`` (m): 1 where ``kappa h`` is at most ``1 / FLAT_TO`` (a face, ``kappa`` 0)."""
+    if kappa * h * FLAT_TO <= 1.0:
+        return 1.0
+    return min(max((1.0 / (kappa * h) - FLAT_FROM) / (FLAT_TO - FLAT_FROM), 0.0), 1.0)
+
+
+def pair_flatness(table_a, R_a, table_b, R_b, n, t) -> float:
+    """The flatness of a pair's contact: the smaller of body A's towards ``n`` (from A into B) and body B's towards
+    ``-n``, along the slip ``t``; 1.0 when either table is None (the law before round 65: a face on a face)."""
+    if table_a is None or table_b is None:
+        return 1.0
+    n = np.asarray(n, np.float64)
+    return min(body_flatness(table_a, R_a, n, t), body_flatness(table_b, R_b, -n, t))

@@ -1,0 +1,117 @@
+"""The rigid bodies' support tables on the device (round 65, issue 67 items 2 and 4; the NumPy reference and the
+design are :mod:`gasp_core.mpm.rigid_support`, taichi_mpm's ``rigid_support.py`` the same): ``support_arrays`` builds
+them once (NumPy), ``body_flat`` reads one body's flatness towards a world direction along the slip in a kernel,
+``body_row`` the row of its nearest table direction (its support ``h``).
+
+This module must not use ``from __future__ import annotations``: Warp reads the annotations of the functions below
+as type objects.
+"""
+import numpy as np
+import warp as wp
+
+from gasp_core.mpm.rigid_friction import FLAT_FROM, FLAT_TO
+
+vec3d = wp.types.vector(3, wp.float64)
+mat33d = wp.types.matrix((3, 3), wp.float64)
+FLAT_0 = wp.constant(wp.float64(FLAT_FROM))
+FLAT_W = wp.constant(wp.float64(FLAT_TO - FLAT_FROM))
+
+
+def support_arrays(data, device, nb: int) -> tuple:
+    """``gasp_core.mpm.rigid_pairs.support_data``'s tables as Warp arrays (vec3d, float64, mat33d, float64 per body)
+    and ``nd``; ``data`` None: no table for any of the ``nb`` bodies (every band 0: every contact a face's)."""
+    if data is None:
+        nb = max(int(nb), 1)
+        data = (np.zeros((nb, 3)), np.ones(nb), np.zeros((nb, 3, 3)), np.zeros(nb), 0)
+    dirs, h, curv, delta, nd = data
+    return (wp.array(dirs, dtype=vec3d, device=device), wp.array(h, dtype=wp.float64, device=device),
+            wp.array(curv, dtype=mat33d, device=device), wp.array(delta, dtype=wp.float64, device=device), int(nd))
+
+
+@wp.func
+def body_row(dirs: wp.array(dtype=vec3d), nd: int, b: int, R: mat33d, d_world: vec3d):
+    # the row of body b's table direction nearest to d (gasp_core.mpm.rigid_support._row)
+    dl = wp.transpose(R) * d_world
+    best = int(0)
+    top = wp.float64(-2.0)
+    for i in range(nd):
+        c = wp.dot(dirs[b * nd + i], dl)
+        if c > top:
+            top = c
+            best = b * nd + i
+    return best
+
+
+@wp.func
+def flat_at(h: wp.array(dtype=wp.float64), curv: wp.array(dtype=mat33d), delta: wp.array(dtype=wp.float64), b: int,
+            row: int, R: mat33d, t_world: vec3d):
+    # gasp_core.mpm.rigid_support.body_flatness at body b's table row: its surface's curvature kappa = 1 / rho along
+    # the slip t against the support h (rigid_support.flatness)
+    f = wp.float64(1.0)
+    if delta[b] > wp.float64(0.0):
+        tl = wp.transpose(R) * t_world
+        kh = wp.dot(tl, curv[row] * tl) * h[row]
+        if kh * (FLAT_0 + FLAT_W) > wp.float64(1.0):
+            f = wp.min(wp.max((wp.float64(1.0) / kh - FLAT_0) / FLAT_W, wp.float64(0.0)), wp.float64(1.0))
+    return f
+
+
+@wp.func
+def roll_flat_at(h: wp.array(dtype=wp.float64), curv: wp.array(dtype=mat33d), delta: wp.array(dtype=wp.float64),
+                 a: int, b: int, row_a: int, row_b: int, RA: mat33d, RB: mat33d, n: vec3d, ut: vec3d, lt: wp.float64,
+                 dw: vec3d):
+    # gasp_core.mpm.rigid_pairs._roll_flatness at the bodies' table rows towards each other: the pair's flatness
+    # along the slip ut, or without slip along the bodies' relative rolling (dw x n); 1 with neither
+    f = wp.float64(1.0)
+    roll = wp.cross(dw - wp.dot(dw, n) * n, n)
+    lr = wp.length(roll)
+    if lt > wp.float64(0.0) or lr > wp.float64(0.0):
+        t = roll / wp.max(lr, wp.float64(1.0e-300))
+        if lt > wp.float64(0.0):
+            t = ut / lt
+        f = wp.min(flat_at(h, curv, delta, a, row_a, RA, t), flat_at(h, curv, delta, b, row_b, RB, t))
+    return f
+
+
+@wp.func
+def roll_flat(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), curv: wp.array(dtype=mat33d),
+              delta: wp.array(dtype=wp.float64), nd: int, a: int, b: int, RA: mat33d, RB: mat33d, n: vec3d,
+              ut: vec3d, lt: wp.float64, dw: vec3d):
+    # roll_flat_at with the rows looked up (body a towards n, b towards -n)
+    return roll_flat_at(h, curv, delta, a, b, body_row(dirs, nd, a, RA, n), body_row(dirs, nd, b, RB, -n), RA, RB,
+                        n, ut, lt, dw)
+
+
+@wp.func
+def roll_point_at(h: wp.array(dtype=wp.float64), row_a: int, row_b: int, cA: vec3d, cB: vec3d, n: vec3d, x_c: vec3d):
+    # gasp_core.mpm.rigid_support.contact_plane: the contact point moved along n onto where the surfaces meet
+    plane = wp.float64(0.5) * (wp.dot(cA, n) + h[row_a] + wp.dot(cB, n) - h[row_b])
+    return x_c + (plane - wp.dot(x_c, n)) * n
+
+
+@wp.func
+def roll_point(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), nd: int, a: int, b: int, RA: mat33d,
+               RB: mat33d, cA: vec3d, cB: vec3d, n: vec3d, x_c: vec3d):
+    # roll_point_at with the rows looked up
+    return roll_point_at(h, body_row(dirs, nd, a, RA, n), body_row(dirs, nd, b, RB, -n), cA, cB, n, x_c)
+
+
+@wp.func
+def tip(f: wp.float64, inv_inertia: mat33d, arm: vec3d, n: vec3d):
+    # (1 - f) of the tipping part (across n) of the moment arm through a body's inverse inertia (round 65's rolling)
+    return (wp.float64(1.0) - f) * (inv_inertia * (arm - wp.dot(arm, n) * n))
+
+
+@wp.func
+def body_inv(inertia0: mat33d, R: mat33d, M: wp.float64, half: wp.float64):
+    # the inverse of a body's inertia at its pose with APIC's M dx^2 / 2 (half = dx^2 / 2)
+    return wp.inverse(R * inertia0 * wp.transpose(R) + half * M * wp.identity(3, wp.float64))
+
+
+@wp.func
+def slip_at(x_c: vec3d, VA: vec3d, wA: vec3d, cA: vec3d, VB: vec3d, wB: vec3d, cB: vec3d, n: vec3d):
+    # the arms from the centres to x_c and the tangential velocity of A's point x_c relative to B's
+    rA = x_c - cA
+    rB = x_c - cB
+    u = VA + wp.cross(wA, rA) - VB - wp.cross(wB, rB)
+    return rA, rB, u - wp.dot(u, n) * n
