@@ -91,7 +91,15 @@ def main() -> None:
     ap.add_argument("--T", type=float, default=0.2)
     ap.add_argument("--spin", type=float, default=1.0, help="the given w R / v0 (0: thrown sliding)")
     ap.add_argument("--block", action="store_true", help="a third body: a rigid block on the slab's far end")
+    ap.add_argument("--points", type=int, default=None, help="round 66: rigid_sdf.POINT_CONTACT (1 on, 0 off)")
+    ap.add_argument("--set", nargs="*", default=[], help="NAME=VALUE on gasp_core.mpm.rigid_sdf (broken variants)")
     a = ap.parse_args()
+    from gasp_core.mpm import rigid_sdf
+    if a.points is not None:
+        rigid_sdf.POINT_CONTACT = bool(a.points)
+    for kv in a.set:
+        k, val = kv.split("=")
+        setattr(rigid_sdf, k, type(getattr(rigid_sdf, k))(float(val)))
     print("| engine | n_grid | R (cm) | slab | mu | v (m/s): start -> end | w R (m/s): start -> end | rise (mm) |")
     print("|---|---|---|---|---|---|---|---|")
     for n in a.n_grid:

@@ -64,14 +64,20 @@ def with_mark(eng, Ft, launches: list) -> list:
     return launches[:at] + [mark] + launches[at:]
 
 
-def collider_launches(eng, Ft) -> list:
-    """The recorded collider pass after the grid update, before G2P; none where off (allocated here, before
-    :func:`with_mark`). Node passes over the grid; ``rc_psum`` (round 64) over the material points; ``rc_body``,
-    ``rc_solve`` one thread a slot (``rc_ns`` rigid bodies), ``rc_coulomb`` one thread a pair (round 65: ``rc_ns``
-    times ``rc_ncol``)."""
+def collider_launches(eng, Ft, g2p) -> list:
+    """The recorded collider pass after the grid update, before G2P (``g2p``, returned after it); none where off
+    (allocated here, before :func:`with_mark`). Node passes over the grid; ``rc_psum`` (round 64) over the material
+    points; ``rc_body``, ``rc_solve`` one thread a slot (``rc_ns`` rigid bodies), ``rc_coulomb`` one thread a pair
+    (round 65: ``rc_ns`` times ``rc_ncol``). Round 66 (``gasp_core.mpm.rigid_sdf.POINT_CONTACT``): ``V*`` only before
+    G2P, the contact by the soft points after it (``point_contact.py``)."""
     allocate_collider(eng, Ft)
     if not eng.rc_on:
-        return []
+        return [g2p]
+    return _collider_launches(eng, Ft, g2p)
+
+
+def _collider_launches(eng, Ft, g2p) -> list:
+    from gasp_core.mpm import rigid_sdf
     _, c_sum, c_body, c_layer, c_solve, c_fsum, c_coulomb, c_apply, c_psum = rc.build_collider(Ft)
     n, d, ng, ns = eng.n_grid ** 3, eng.device, eng.n_grid, eng.rc_ns
     lo = eng.k.vec3(*[float(c) for c in eng.setup.domain_lo])
@@ -85,6 +91,9 @@ def collider_launches(eng, Ft) -> list:
         out = [wp.launch(c_sum, dim=n, device=d, record_cmd=True, inputs=[
             eng.grid_v, eng.grid_dv, eng.rc_m, eng.rc_ra, eng.rc_acc])]
     out.append(wp.launch(c_body, dim=ns, device=d, record_cmd=True, inputs=[eng.rc_acc, eng.rb_w, eng.rc_bodies]))
+    if rigid_sdf.POINT_CONTACT:   # round 66: the band off, the soft points against the body's shape after G2P
+        from .point_contact import point_launches
+        return out + point_launches(eng, Ft, c_solve, c_coulomb) + [g2p]
     for mode in (0, 1):   # the normal solve, then the tangential one
         out += [wp.launch(c_layer, dim=n, device=d, record_cmd=True, inputs=[eng.grid_v, eng.grid_dv, *geo, mode]),
                 wp.launch(c_solve, dim=ns, device=d, record_cmd=True, inputs=[*solve, mode, rc.IMPLICIT])]
@@ -94,4 +103,4 @@ def collider_launches(eng, Ft) -> list:
         wp.launch(c_coulomb, dim=ns * eng.rc_ncol, device=d, record_cmd=True, inputs=[
             eng.rc_pacc, eng.rc_mus, float(rc.FRICTION)]),
         wp.launch(c_apply, dim=n, device=d, record_cmd=True, inputs=[
-            eng.grid_v, eng.grid_dv, *geo, *pairs, eng.acc_p, eng.acc_l, rc.REACT])]
+            eng.grid_v, eng.grid_dv, *geo, *pairs, eng.acc_p, eng.acc_l, rc.REACT]), g2p]

@@ -1,0 +1,118 @@
+"""Round 66 (issue 67 items 2 and 4, ``docs/rigid.md`` "Round 66: a ball rolls on a soft body"): the rigid collider's
+contact of the soft body's *points* against the rigid body's *shape*, instead of round 63's node band.
+
+Why (round 65, measured): the band takes the soft field's normal at every band node up to 1.4 cells from the
+contact, so a ball rolling on a jelly slab (a 6 mm contact patch at dx 15 mm) reads its descending front as an
+approach: a frictionless contact stopped its spin in 0.03 s, with friction it stopped. A node band cannot resolve the
+patch; the soft body's points (spacing dx / 2) against the body's own surface can.
+
+**The shape** (:func:`body_sdf`, once per rigid body, at rest, in its body frame; any shape: a block, a ball, a plate,
+a ring, a scan): the body's points (offsets from its centre) each fill a cube of their spacing ``s`` (the median
+nearest-neighbour distance); that occupancy on a lattice of ``h = s / LATTICE`` is blurred by a Gaussian of
+``BLUR s`` (which rounds the points' staircase and a lattice ball's ragged outer layer) and cut at 1/2 (a face's surface half a spacing, a quarter cell, beyond its outer points: where the collider and the
+ground's law put it); the signed distance to that cut (Euclid's transform, ``scipy.ndimage``; the half-voxel
+offsets taken off), smoothed by a quarter spacing, and its gradient on the same lattice. Read trilinearly
+(:func:`sdf_read`); outside the lattice (:data:`PAD` cells beyond the points) no contact.
+
+**The contact** (per substep, after G2P; :data:`POINT_CONTACT`): a soft point at ``x`` (its advected position)
+touches a slot's body where its body-frame distance ``phi < SKIN`` cells (the soft point's own half spacing: its
+body's surface a quarter cell beyond it), the body at ``V*`` (the rigid field's velocity this substep, round 63) with
+its spin, its centre moved by ``dt V*``. The touching points that approach it (``u . n < 0``, ``u = v - V* - w x r``)
+and the body are solved as round 63's band nodes are (:func:`gasp_core.mpm.rigid_collider.collide` with the points
+for the nodes: the 6 x 6 normal solve, the tangential one, Coulomb's cap per pair with ``combine_friction``'s ``mu``);
+each point takes its change in velocity and ``dt`` times it in position (it moved with the velocity before), the
+body ``-m dv`` into its projection sums. The node band is off (``BAND`` unused) while the points hold the contact.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+#: Round 66: True takes the rigid collider's contact by the soft points against the body's shape (module notes);
+#: False: round 63's node band (a ball rolling on jelly lost its spin in 0.03 s, ``docs/rigid.md`` "Round 65").
+POINT_CONTACT = False
+#: A soft point touches where the body's distance at it is below this many cells (its own half spacing, dx / 4).
+SKIN = 0.25
+#: Lattice voxels per point spacing (fewer where the lattice would pass :data:`MAX_VOXELS`).
+LATTICE = 8
+MAX_VOXELS = 4_000_000
+#: The blur of the points' occupancy, in point spacings (measured on a 3 cm ball at n_grid 32: 0.5 left the normals
+#: 9 deg off the radial on average, 0.75 3 deg; the radius 0.9 mm short of the outer points' plus a quarter cell).
+BLUR = 0.75
+#: The lattice reaches this many cells beyond the body's points.
+PAD = 1.0
+#: Deliberately broken variants for the checks: FRICTION_CAP 0 drops the Coulomb cap (the tangential change applied
+#: whole); REACT_POINTS 0 gives the body no reaction.
+FRICTION_CAP = 1
+#: The penetration's way out: a point ``SKIN - phi`` inside leaves at ``BIAS (SKIN - phi) / dt`` (Baumgarte's; without
+#: it the contact is a dashpot: a ball at rest on jelly sank 14 mm in 0.25 s at a steady 3 cm/s).
+BIAS = 0.2
+REACT_POINTS = 1
+
+
+def point_spacing(X: np.ndarray) -> float:
+    """The median nearest-neighbour distance of points ``X`` (N, 3) m."""
+    from scipy.spatial import cKDTree
+    d, _ = cKDTree(X).query(X, k=2)
+    return float(np.median(d[:, 1]))
+
+
+def body_sdf(X0: np.ndarray, dx: float) -> dict:
+    """The signed distance of a rigid body's shape from its points ``X0`` ((N, 3) m, offsets in its rest frame):
+    ``{"origin": (3,) m, "h": m, "phi": (nx, ny, nz) m (negative inside), "grad": (nx, ny, nz, 3)}``."""
+    from scipy import ndimage
+    from scipy.spatial import cKDTree
+    X0 = np.asarray(X0, float)
+    s = point_spacing(X0)
+    span = X0.max(0) - X0.min(0) + 2 * PAD * dx + 4 * s / LATTICE
+    h = max(s / LATTICE, float(np.prod(span) / MAX_VOXELS) ** (1.0 / 3.0))
+    lo = X0.min(0) - PAD * dx - 2 * h
+    hi = X0.max(0) + PAD * dx + 2 * h
+    dims = np.ceil((hi - lo) / h).astype(int) + 1
+    axes = [lo[a] + h * np.arange(dims[a]) for a in range(3)]
+    g = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+    d, _ = cKDTree(X0).query(g, p=np.inf, distance_upper_bound=s)
+    occ = (d <= 0.5 * s).reshape(dims).astype(float)
+    inside = ndimage.gaussian_filter(occ, BLUR * s / h, mode="constant") >= 0.5
+    phi = np.where(inside, -(ndimage.distance_transform_edt(inside) - 0.5),
+                   ndimage.distance_transform_edt(~inside) - 0.5) * h
+    phi = ndimage.gaussian_filter(phi, 0.25 * s / h, mode="nearest")
+    grad = np.stack(np.gradient(phi, h), -1)
+    return {"origin": lo, "h": h, "phi": phi, "grad": grad}
+
+
+def sdf_read(sdf: dict, q: np.ndarray) -> tuple[float, np.ndarray]:
+    """``(phi, grad)`` of :func:`body_sdf`'s field at body-frame ``q`` (3,) m, trilinear; ``(inf, 0)`` outside."""
+    phi, grad = sdf["phi"], sdf["grad"]
+    f = (np.asarray(q, float) - sdf["origin"]) / sdf["h"]
+    i = np.floor(f).astype(int)
+    if np.any(i < 0) or np.any(i >= np.array(phi.shape) - 1):
+        return np.inf, np.zeros(3)
+    t = f - i
+    p, gr = 0.0, np.zeros(3)
+    for a in (0, 1):
+        for b in (0, 1):
+            for c in (0, 1):
+                w = (t[0] if a else 1 - t[0]) * (t[1] if b else 1 - t[1]) * (t[2] if c else 1 - t[2])
+                p += w * phi[i[0] + a, i[1] + b, i[2] + c]
+                gr += w * grad[i[0] + a, i[1] + b, i[2] + c]
+    return float(p), gr
+
+
+def point_contact(M, inertia, V, w, centre, rot, sdf, dx, x, v, m, mu):
+    """The reference of one substep's point contact (module notes) for one rigid body (mass ``M``, ``inertia``
+    (3, 3) about its centre, ``V``, ``w``, ``centre`` (3,), ``rot`` (3, 3)) and soft points ``x``, ``v`` (N, 3),
+    masses ``m`` (N,): ``(dv, J, L)`` as :func:`gasp_core.mpm.rigid_collider.collide` (the points for the nodes)."""
+    from gasp_core.mpm.rigid_collider import collide
+    x, v = np.asarray(x, float), np.asarray(v, float)
+    n = np.zeros_like(x)
+    touch = np.zeros(len(x), bool)
+    for p in range(len(x)):
+        phi, g = sdf_read(sdf, np.asarray(rot).T @ (x[p] - centre))
+        if phi < SKIN * dx and np.linalg.norm(g) > 0:
+            touch[p], n[p] = True, np.asarray(rot) @ g / np.linalg.norm(g)
+    dv = np.zeros_like(v)
+    if not touch.any():
+        return dv, np.zeros(3), np.zeros(3)
+    d, J, L = collide(M, inertia, V, w, np.asarray(m, float)[touch], x[touch] - centre, v[touch], n[touch], mu)
+    dv[touch] = d
+    return dv, J, L
