@@ -161,3 +161,58 @@ def test_a_ball_rolls_on_an_elastic_slab(engine):
     _engine(engine)
     r = measure_roll(engine, 32, mu=0.5, slab="elastic")
     assert abs(r["v"][1] / r["v"][0] - 1.0) < TOL, r
+
+
+# Round 66 (docs/rigid.md "Round 66: a ball rolls on a soft body"): the rigid collider's contact by the soft points
+# against the rigid body's shape (gasp_core.mpm.rigid_sdf.POINT_CONTACT, off by default; warp_mpm only). The two
+# checks above with it on; the rows that miss 5 % are strict xfails with their figures.
+POINT_MISSES = {
+    (48, 0.045, 0.0): "round 66: n_grid 48, R 4.5 cm, frictionless: w R 0.500 -> 0.579 (+16 %; the lattice ball's "
+                      "facets' normals, an exact sphere's distance keeps it to 0.0 %)",
+    (48, 0.03, 0.5): "round 66: n_grid 48, R 3 cm, mu 0.5: w R 0.500 -> 0.449 (-10 %)",
+    (32, 0.03, 0.5): "round 66: n_grid 32, R 3 cm, mu 0.5: w R 0.500 -> 0.467 (-6.6 %)",
+    (32, 0.045, 0.0): "round 66: n_grid 32, R 4.5 cm, frictionless: v 0.500 -> 0.465 (-7.0 %), w R +5.0 %",
+    (48, 0.045, 0.5): "round 66: n_grid 48, R 4.5 cm, mu 0.5: w R +2.2 %, v -1.0 % (passes 5 %; kept as measured)",
+}
+
+
+def _point_roll(n_grid: int, R: float, mu: float, **consts):
+    import gasp_core.mpm.rigid_sdf as sdf
+    _engine("warp_mpm")
+    old = {k: getattr(sdf, k) for k in ("POINT_CONTACT", *consts)}
+    sdf.POINT_CONTACT = True
+    for k, v in consts.items():
+        setattr(sdf, k, v)
+    try:
+        return measure_roll("warp_mpm", n_grid, R=R, mu=mu, slab="elastic")
+    finally:
+        for k, v in old.items():
+            setattr(sdf, k, v)
+
+
+def _keeps(r) -> bool:
+    """Speed and spin each within 5 % of the first frame's (a rolling ball on an elastic slab: no torque without
+    friction, no slip with it, no rolling resistance without hysteresis)."""
+    return abs(r["v"][1] / r["v"][0] - 1.0) < TOL and abs(r["spin"][1] / r["spin"][0] - 1.0) < TOL
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("n_grid,R,mu", [
+    (32, 0.03, 0.0),
+    pytest.param(32, 0.03, 0.5, marks=pytest.mark.xfail(strict=True, reason=POINT_MISSES[(32, 0.03, 0.5)])),
+    pytest.param(32, 0.045, 0.0, marks=pytest.mark.xfail(strict=True, reason=POINT_MISSES[(32, 0.045, 0.0)])),
+    (32, 0.045, 0.5), (48, 0.03, 0.0),
+    pytest.param(48, 0.03, 0.5, marks=pytest.mark.xfail(strict=True, reason=POINT_MISSES[(48, 0.03, 0.5)])),
+    pytest.param(48, 0.045, 0.0, marks=pytest.mark.xfail(strict=True, reason=POINT_MISSES[(48, 0.045, 0.0)]))])
+def test_with_the_point_contact_a_ball_rolls_on_jelly(n_grid, R, mu):
+    r = _point_roll(n_grid, R, mu)
+    assert _keeps(r), r
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("consts", [{"REACT_POINTS": 0}, {"BIAS": 0.0}])
+def test_the_point_rolling_check_catches_broken_contacts(consts):
+    """The catches: the reaction dropped (the ball falls through the slab), no way out of the penetration (a
+    dashpot: the ball sinks and ploughs)."""
+    r = _point_roll(32, 0.03, 0.0, **consts)
+    assert not _keeps(r), (consts, r)

@@ -41,6 +41,23 @@ def allocate_collider(eng, Ft) -> None:
     eng.rc_o = wp.zeros(n, dtype=wp.int32, device=d)
     eng.rc_box = wp.array(np.asarray(data["boxes"], np.float64).reshape(-1, 3), dtype=vec3d, device=d)
     eng.rc_acc = wp.zeros(int(rc.NA) * len(bodies), dtype=wp.float64, device=d)
+    eng.rc_pt = wp.array(point_slots(eng, bodies), dtype=wp.int32, device=d)   # round 66: the round bodies
+
+
+def point_slots(eng, bodies) -> np.ndarray:
+    """Round 66: 1 for a slot whose body takes the point contact (``rigid_sdf.POINT_CONTACT`` and a round body,
+    ``rigid_sdf.round_body``), else 0 (round 63's band)."""
+    from gasp_core.mpm import rigid_sdf
+    out = np.zeros(len(bodies), np.int32)
+    if not rigid_sdf.POINT_CONTACT:
+        return out
+    from gasp_core.mpm.rigid import body_frames, rigid_mask
+    s = eng.setup
+    X0 = body_frames(s.x, s.p_mass, s.body_id, np.asarray(rigid_mask(s.materials), bool))[1]
+    body = np.asarray(s.body_id)
+    for i, k in enumerate(bodies):
+        out[i] = int(rigid_sdf.round_body(X0[(body == k) & (np.asarray(s.p_mass) > 0)]))
+    return out
 
 
 def with_mark(eng, Ft, launches: list) -> list:
@@ -59,7 +76,7 @@ def with_mark(eng, Ft, launches: list) -> list:
         eng.field_rule % 2, eng.rc_m, eng.rc_n, eng.grid_dv, eng.in_a, eng.rc_bodies, eng.rc_ns, eng.rc_multi,
         int(bool(GROUND_MIRROR)), float(core_collider.BAND * eng.dx),
         eng.k.vec3(*[float(c) for c in eng.setup.domain_lo]), Ft(eng.dx), eng.rc_o, eng.rb_c, eng.rb_R, eng.rc_box,
-        float(NODE_PAD * eng.dx), eng.rc_sb])
+        float(NODE_PAD * eng.dx), eng.rc_sb, eng.rc_pt])
     at = len(launches) - 1 - int(eng.flow_touch_on or eng.gap_touch_on)
     return launches[:at] + [mark] + launches[at:]
 
@@ -77,7 +94,6 @@ def collider_launches(eng, Ft, g2p) -> list:
 
 
 def _collider_launches(eng, Ft, g2p) -> list:
-    from gasp_core.mpm import rigid_sdf
     _, c_sum, c_body, c_layer, c_solve, c_fsum, c_coulomb, c_apply, c_psum = rc.build_collider(Ft)
     n, d, ng, ns = eng.n_grid ** 3, eng.device, eng.n_grid, eng.rc_ns
     lo = eng.k.vec3(*[float(c) for c in eng.setup.domain_lo])
@@ -91,16 +107,17 @@ def _collider_launches(eng, Ft, g2p) -> list:
         out = [wp.launch(c_sum, dim=n, device=d, record_cmd=True, inputs=[
             eng.grid_v, eng.grid_dv, eng.rc_m, eng.rc_ra, eng.rc_acc])]
     out.append(wp.launch(c_body, dim=ns, device=d, record_cmd=True, inputs=[eng.rc_acc, eng.rb_w, eng.rc_bodies]))
-    if rigid_sdf.POINT_CONTACT:   # round 66: the band off, the soft points against the body's shape after G2P
-        from .point_contact import point_launches
-        return out + point_launches(eng, Ft, c_solve, c_coulomb) + [g2p]
     for mode in (0, 1):   # the normal solve, then the tangential one
         out += [wp.launch(c_layer, dim=n, device=d, record_cmd=True, inputs=[eng.grid_v, eng.grid_dv, *geo, mode]),
                 wp.launch(c_solve, dim=ns, device=d, record_cmd=True, inputs=[*solve, mode, rc.IMPLICIT])]
     pairs = [eng.rc_sb, eng.rc_cols, eng.rc_ncol, eng.rc_pacc]   # round 65: Coulomb's per pair (collider_pair.py)
+    points = []
+    if eng.rc_pt.numpy().any():   # round 66: the round bodies' contact by the soft points (point_contact.py)
+        from .point_contact import point_launches
+        points = point_launches(eng, Ft, c_solve, c_coulomb)
     return out + [
         wp.launch(c_fsum, dim=n, device=d, record_cmd=True, inputs=[eng.grid_v, eng.grid_dv, *geo, *pairs]),
         wp.launch(c_coulomb, dim=ns * eng.rc_ncol, device=d, record_cmd=True, inputs=[
             eng.rc_pacc, eng.rc_mus, float(rc.FRICTION)]),
         wp.launch(c_apply, dim=n, device=d, record_cmd=True, inputs=[
-            eng.grid_v, eng.grid_dv, *geo, *pairs, eng.acc_p, eng.acc_l, rc.REACT]), g2p]
+            eng.grid_v, eng.grid_dv, *geo, *pairs, eng.acc_p, eng.acc_l, rc.REACT])] + points + [g2p]

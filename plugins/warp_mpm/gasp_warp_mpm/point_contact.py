@@ -114,7 +114,8 @@ def build_point_contact(Ft):
                 dt: wp.float64, skin: wp.float64, phi: wp.array(dtype=wp.float32), grad: wp.array(dtype=wp.vec3f),
                 org: wp.array(dtype=vec3d), hs: wp.array(dtype=wp.float64), dims: wp.array(dtype=wp.int32),
                 pc_s: wp.array(dtype=wp.int32), pc_n: wp.array(dtype=vec3d), pc_x: wp.array(dtype=vec3d),
-                pc_v: wp.array(dtype=vec3d), bias: wp.float64, pc_b: wp.array(dtype=wp.float64)):
+                pc_v: wp.array(dtype=vec3d), bias: wp.float64, pc_b: wp.array(dtype=wp.float64),
+                rc_pt: wp.array(dtype=wp.int32)):
         """A soft point's G2P velocity from its field (``pc_v``) and its position after it (``pc_x``); its slot (``pc_s``: -1 none, ``-2 - s`` touching slot ``s`` and not approaching, ``s``
         approaching: into its normal system) and its normal out of the body."""
         p = wp.tid()
@@ -140,7 +141,8 @@ def build_point_contact(Ft):
                 c = centre[rb] + dt * vec3d(acc[NA * s + 4], acc[NA * s + 5], acc[NA * s + 6])
                 R = rot[rb]
                 d, g = sdf_at(wp.transpose(R) * (xp - c), s, phi, grad, org, hs, dims)
-                if d < best and wp.length(g) > wp.float64(0.0):
+                # a body with faces (rc_pt 0, round 63's band) has a one-voxel lattice: no contact
+                if rc_pt[s] != 0 and d < best and wp.length(g) > wp.float64(0.0):
                     best = d
                     sb = s
                     nb = wp.normalize(R * g)
@@ -277,7 +279,15 @@ def allocate_points(eng) -> None:
     _, X0, _, _ = body_frames(setup.x, setup.p_mass, setup.body_id, rigid)
     body = np.asarray(setup.body_id)
     phis, grads, org, hs, dims, base = [], [], [], [], [], 0
-    for k in eng.rc_bodies.numpy():
+    for k, on in zip(eng.rc_bodies.numpy(), eng.rc_pt.numpy()):
+        if not on:   # a body with faces: no lattice (one voxel)
+            phis.append(np.ones(1))
+            grads.append(np.zeros((1, 3)))
+            org.append(np.zeros(3))
+            hs.append(1.0)
+            dims += [1, 1, 1, base]
+            base += 1
+            continue
         sdf = body_sdf(X0[body == k], eng.dx)
         phis.append(sdf["phi"].reshape(-1))
         grads.append(sdf["grad"].reshape(-1, 3))
@@ -316,7 +326,7 @@ def point_launches(eng, Ft, c_solve, c_coulomb) -> list:
             eng.x, eng.grid_v, eng.grid_dv, eng.in_a, lo, Ft(eng.inv_dx), eng.n_grid, eng.body, eng.p_mass,
             eng.rb_rigid, eng.rc_bodies, ns, eng.rb_c, eng.rb_R, eng.rc_acc, dt, float(rigid_sdf.SKIN * eng.dx),
             eng.pc_phi, eng.pc_grad, eng.pc_org, eng.pc_h, eng.pc_dim, eng.pc_s, eng.pc_n, eng.pc_x, eng.pc_v,
-            float(rigid_sdf.BIAS), eng.pc_b]),
+            float(rigid_sdf.BIAS), eng.pc_b, eng.rc_pt]),
         wp.launch(c_solve, dim=ns, device=d, record_cmd=True, inputs=[*solve, 0, rc.IMPLICIT]),
         wp.launch(layer, dim=n, device=d, record_cmd=True, inputs=[eng.pc_x, eng.pc_v, eng.p_mass, *geo]),
         wp.launch(c_solve, dim=ns, device=d, record_cmd=True, inputs=[*solve, 1, rc.IMPLICIT]),
