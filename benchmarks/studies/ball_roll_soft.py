@@ -13,7 +13,11 @@ its centre) at the start and after ``T`` s, and the rise of its centre (mm; over
 
     python benchmarks/studies/ball_roll_soft.py --engine warp_mpm --n-grid 32 --mu 0.5 --slab elastic
 
-Figures: ``docs/rigid.md`` ("Round 65: a ball rolling on a soft slab").
+Round 66: ``--points 1`` takes the rigid collider's contact by the soft points against the ball's shape
+(``gasp_core.mpm.rigid_sdf.POINT_CONTACT``; warp_mpm), ``--set NAME=VALUE`` a constant of ``rigid_sdf`` (a broken
+variant: ``REACT_POINTS=0``, ``BIAS=0``, ``FRICTION_CAP=0``).
+
+Figures: ``docs/rigid.md`` ("Round 65: a ball rolling on a soft slab", "Round 66: a ball rolls on a soft body").
 """
 from __future__ import annotations
 

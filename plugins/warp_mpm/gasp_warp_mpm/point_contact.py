@@ -29,7 +29,8 @@ from .stencil import build_gather, build_stencil
 
 @functools.cache
 def build_point_contact(Ft):
-    """``(pc_mark, pc_layer, pc_fsum, pc_apply, pc_node)`` for the scalar type ``Ft``."""
+    """``(pc_mark, pc_layer, pc_fsum, pc_apply, pc_node)`` for the scalar type ``Ft``. It is long because the
+    kernels and their helpers are closures of the scalar type (``rigid_collider.build_collider``'s reason)."""
     vec3, vec4 = build_types(Ft)[:2]
     in_grid, weights = build_stencil(Ft)
     field_offset_base, gather = build_field_reads(Ft)[0], build_gather(Ft)
