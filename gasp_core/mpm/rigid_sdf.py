@@ -9,19 +9,22 @@ patch; the soft body's points (spacing dx / 2) against the body's own surface ca
 **The shape** (:func:`body_sdf`, once per rigid body, at rest, in its body frame; any shape: a block, a ball, a plate,
 a ring, a scan): the body's points (offsets from its centre) each fill a cube of their spacing ``s`` (the median
 nearest-neighbour distance); that occupancy on a lattice of ``h = s / LATTICE`` is blurred by a Gaussian of
-``BLUR s`` (which rounds the points' staircase and a lattice ball's ragged outer layer) and cut at 1/2 (a face's surface half a spacing, a quarter cell, beyond its outer points: where the collider and the
+``BLUR s`` (which rounds the points' staircase and a lattice ball's ragged outer layer) and cut at 1/2 (a face's
+surface half a spacing, a quarter cell, beyond its outer points: where the collider and the
 ground's law put it); the signed distance to that cut (Euclid's transform, ``scipy.ndimage``; the half-voxel
 offsets taken off), smoothed by a quarter spacing, and its gradient on the same lattice. Read trilinearly
 (:func:`sdf_read`); outside the lattice (:data:`PAD` cells beyond the points) no contact.
 
-**The contact** (per substep, after G2P; :data:`POINT_CONTACT`): a soft point at ``x`` (its advected position)
-touches a slot's body where its body-frame distance ``phi < SKIN`` cells (the soft point's own half spacing: its
-body's surface a quarter cell beyond it), the body at ``V*`` (the rigid field's velocity this substep, round 63) with
-its spin, its centre moved by ``dt V*``. The touching points that approach it (``u . n < 0``, ``u = v - V* - w x r``)
-and the body are solved as round 63's band nodes are (:func:`gasp_core.mpm.rigid_collider.collide` with the points
-for the nodes: the 6 x 6 normal solve, the tangential one, Coulomb's cap per pair with ``combine_friction``'s ``mu``);
-each point takes its change in velocity and ``dt`` times it in position (it moved with the velocity before), the
-body ``-m dv`` into its projection sums. The node band is off (``BAND`` unused) while the points hold the contact.
+**The contact** (per substep, after the grid update and round 63's ``V*``, before G2P; :data:`POINT_CONTACT`): a
+soft point at its position after the substep (its G2P velocity read from its field) touches a slot's body where its
+body-frame distance ``phi < SKIN`` cells (the soft point's own half spacing), the body at ``V*`` with its spin, its
+centre moved by ``dt V*``. The touching points that approach it (``u . n < b``, ``u = v - V* - w x r``, ``b =
+BIAS (SKIN dx - phi) / dt`` Baumgarte's way out of a penetration) and the body are solved as round 63's band nodes
+are (:func:`gasp_core.mpm.rigid_collider.collide` with the points for the nodes: the 6 x 6 normal solve, the
+tangential one, Coulomb's cap per pair with ``combine_friction``'s ``mu``); each point's change of momentum goes to
+its field's nodes by its weights (so G2P gives it, and its gradient to ``F``), the body takes the opposite into its
+projection sums. Only round bodies (:func:`round_body`) take it; bodies with faces keep round 63's node band.
+Measured and the variants tried: ``docs/rigid.md`` "Round 66: a ball rolls on a soft body".
 """
 from __future__ import annotations
 
@@ -160,3 +163,33 @@ def point_contact(M, inertia, V, w, centre, rot, sdf, dx, x, v, m, mu, dt=None):
     d, J, L = collide(M, inertia, V, w, np.asarray(m, float)[touch], x[touch] - centre, vs, n[touch], mu)
     dv[touch] = d
     return dv, J, L
+
+
+def point_data(setup, bodies) -> dict:
+    """What an engine's point contact reads for the collider's slots (``bodies``, their rigid bodies): ``{"on":
+    (n_slots,) int32 (1: a round body, :func:`round_body`), "phi": float32 (all slots' lattices, flat), "grad":
+    (n, 3) float32, "origin": (n_slots, 3), "h": (n_slots,), "dims": (4 n_slots,) int32 (each slot's shape and its
+    first voxel)}``; a body with faces a one-voxel lattice (no contact). All off without :data:`POINT_CONTACT`."""
+    from gasp_core.mpm.rigid import body_frames, rigid_mask
+    bodies = np.asarray(bodies, int)
+    body = np.asarray(setup.body_id)
+    mass = np.broadcast_to(np.asarray(setup.p_mass, np.float64), body.shape)
+    X0 = body_frames(setup.x, mass, body, np.asarray(rigid_mask(setup.materials), bool))[1]
+    dx = float((np.asarray(setup.domain_hi, float) - np.asarray(setup.domain_lo, float))[0] / setup.n_grid)
+    out = {"on": np.zeros(len(bodies), np.int32), "phi": [], "grad": [], "origin": [], "h": [], "dims": []}
+    base = 0
+    for i, k in enumerate(bodies):
+        pts = X0[(body == k) & (mass > 0)]
+        on = bool(POINT_CONTACT) and round_body(pts)
+        out["on"][i] = int(on)
+        sdf = body_sdf(pts, dx) if on else {"origin": np.zeros(3), "h": 1.0, "phi": np.ones((1, 1, 1)),
+                                             "grad": np.zeros((1, 1, 1, 3))}
+        out["phi"].append(sdf["phi"].reshape(-1))
+        out["grad"].append(sdf["grad"].reshape(-1, 3))
+        out["origin"].append(sdf["origin"])
+        out["h"].append(sdf["h"])
+        out["dims"] += [*sdf["phi"].shape, base]
+        base += sdf["phi"].size
+    return {"on": out["on"], "phi": np.concatenate(out["phi"]).astype(np.float32),
+            "grad": np.concatenate(out["grad"]).astype(np.float32), "origin": np.asarray(out["origin"], np.float64),
+            "h": np.asarray(out["h"], np.float64), "dims": np.asarray(out["dims"], np.int32)}

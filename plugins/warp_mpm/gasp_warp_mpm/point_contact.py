@@ -117,7 +117,8 @@ def build_point_contact(Ft):
                 pc_s: wp.array(dtype=wp.int32), pc_n: wp.array(dtype=vec3d), pc_x: wp.array(dtype=vec3d),
                 pc_v: wp.array(dtype=vec3d), bias: wp.float64, pc_b: wp.array(dtype=wp.float64),
                 rc_pt: wp.array(dtype=wp.int32)):
-        """A soft point's G2P velocity from its field (``pc_v``) and its position after it (``pc_x``); its slot (``pc_s``: -1 none, ``-2 - s`` touching slot ``s`` and not approaching, ``s``
+        """A soft point's G2P velocity from its field (``pc_v``) and its position after it (``pc_x``); its slot
+        (``pc_s``: -1 none, ``-2 - s`` touching slot ``s`` and not approaching, ``s``
         approaching: into its normal system) and its normal out of the body."""
         p = wp.tid()
         pc_s[p] = -1
@@ -197,7 +198,8 @@ def build_point_contact(Ft):
     def pc_fsum(x: wp.array(dtype=vec3d), v: wp.array(dtype=vec3d), body: wp.array(dtype=wp.int32),
                 p_mass: wp.array(dtype=Ft), bodies: wp.array(dtype=wp.int32), centre: wp.array(dtype=vec3d),
                 acc: wp.array(dtype=wp.float64), dt: wp.float64, pc_s: wp.array(dtype=wp.int32),
-                pc_n: wp.array(dtype=vec3d), pc_b: wp.array(dtype=wp.float64), cols: wp.array(dtype=wp.int32), n_cols: int,
+                pc_n: wp.array(dtype=vec3d), pc_b: wp.array(dtype=wp.float64), cols: wp.array(dtype=wp.int32),
+                n_cols: int,
                 pacc: wp.array(dtype=wp.float64)):
         """Each pair's normal impulse (0) and stuck tangential one (1-3), round 65's layout."""
         p = wp.tid()
@@ -215,7 +217,8 @@ def build_point_contact(Ft):
     def pc_apply(x: wp.array(dtype=vec3d), v: wp.array(dtype=vec3d), body: wp.array(dtype=wp.int32),
                  p_mass: wp.array(dtype=Ft), bodies: wp.array(dtype=wp.int32), centre: wp.array(dtype=vec3d),
                  acc: wp.array(dtype=wp.float64), dt: wp.float64, pc_s: wp.array(dtype=wp.int32),
-                 pc_n: wp.array(dtype=vec3d), pc_b: wp.array(dtype=wp.float64), cols: wp.array(dtype=wp.int32), n_cols: int,
+                 pc_n: wp.array(dtype=vec3d), pc_b: wp.array(dtype=wp.float64), cols: wp.array(dtype=wp.int32),
+                n_cols: int,
                  pacc: wp.array(dtype=wp.float64), acc_p: wp.array(dtype=vec3d), acc_l: wp.array(dtype=vec3d),
                  react: int, cap: int, x0: wp.array(dtype=vec3), in_a: wp.array(dtype=wp.int32), lo: vec3, inv_dx: Ft,
                  n_grid: int, pc_g: wp.array(dtype=vec3d)):
