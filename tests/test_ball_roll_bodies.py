@@ -175,15 +175,15 @@ POINT_MISSES = {
 }
 
 
-def _point_roll(n_grid: int, R: float, mu: float, **consts):
+def _point_roll(n_grid: int, R: float, mu: float, engine: str = "warp_mpm", **consts):
     import gasp_core.mpm.rigid_sdf as sdf
-    _engine("warp_mpm")
+    _engine(engine)
     old = {k: getattr(sdf, k) for k in ("POINT_CONTACT", *consts)}
     sdf.POINT_CONTACT = True
     for k, v in consts.items():
         setattr(sdf, k, v)
     try:
-        return measure_roll("warp_mpm", n_grid, R=R, mu=mu, slab="elastic")
+        return measure_roll(engine, n_grid, R=R, mu=mu, slab="elastic")
     finally:
         for k, v in old.items():
             setattr(sdf, k, v)
@@ -193,6 +193,14 @@ def _keeps(r) -> bool:
     """Speed and spin each within 5 % of the first frame's (a rolling ball on an elastic slab: no torque without
     friction, no slip with it, no rolling resistance without hysteresis)."""
     return abs(r["v"][1] / r["v"][0] - 1.0) < TOL and abs(r["spin"][1] / r["spin"][0] - 1.0) < TOL
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("engine,n_grid,R,mu", [("taichi_mpm", 32, 0.03, 0.0), ("taichi_mpm", 32, 0.045, 0.5)])
+def test_with_the_point_contact_taichi_mpm_rolls_as_warp_mpm(engine, n_grid, R, mu):
+    """taichi_mpm's port (``gasp_taichi_mpm/point_contact.py``): warp_mpm's figures to the digits printed."""
+    r = _point_roll(n_grid, R, mu, engine)
+    assert _keeps(r), r
 
 
 @pytest.mark.slow
@@ -209,11 +217,12 @@ def test_with_the_point_contact_a_ball_rolls_on_jelly(n_grid, R, mu):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("consts", [{"REACT_POINTS": 0}, {"BIAS": 0.0}])
-def test_the_point_rolling_check_catches_broken_contacts(consts):
+@pytest.mark.parametrize("engine,consts", [("warp_mpm", {"REACT_POINTS": 0}), ("warp_mpm", {"BIAS": 0.0}),
+                                           ("taichi_mpm", {"REACT_POINTS": 0})])
+def test_the_point_rolling_check_catches_broken_contacts(engine, consts):
     """The catches: the reaction dropped (the ball falls through the slab), no way out of the penetration (a
     dashpot: the ball sinks and ploughs)."""
-    r = _point_roll(32, 0.03, 0.0, **consts)
+    r = _point_roll(32, 0.03, 0.0, engine, **consts)
     assert not _keeps(r), (consts, r)
 
 
