@@ -234,7 +234,4 @@ def collider_data(setup) -> dict | None:
         else:
             out = {"bodies": rigid.astype(np.int32), "cols": np.zeros(nb, np.int32),
                    "mus": slot_frictions(view.materials, rigid)[:, None], "multi": True}
-    if out is not None:   # round 66: the round bodies' point contact (taichi_mpm reads it here)
-        from gasp_core.mpm.rigid_sdf import POINT_CONTACT, point_data
-        out["points"] = point_data(setup, out["bodies"]) if POINT_CONTACT else None
     return out

@@ -41,23 +41,10 @@ def allocate_collider(eng, Ft) -> None:
     eng.rc_o = wp.zeros(n, dtype=wp.int32, device=d)
     eng.rc_box = wp.array(np.asarray(data["boxes"], np.float64).reshape(-1, 3), dtype=vec3d, device=d)
     eng.rc_acc = wp.zeros(int(rc.NA) * len(bodies), dtype=wp.float64, device=d)
-    eng.rc_pt = wp.array(point_slots(eng, bodies), dtype=wp.int32, device=d)   # round 66: the round bodies
-
-
-def point_slots(eng, bodies) -> np.ndarray:
-    """Round 66: 1 for a slot whose body takes the point contact (``rigid_sdf.POINT_CONTACT`` and a round body,
-    ``rigid_sdf.round_body``), else 0 (round 63's band)."""
-    from gasp_core.mpm import rigid_sdf
-    out = np.zeros(len(bodies), np.int32)
-    if not rigid_sdf.POINT_CONTACT:
-        return out
-    from gasp_core.mpm.rigid import body_frames, rigid_mask
-    s = eng.setup
-    X0 = body_frames(s.x, s.p_mass, s.body_id, np.asarray(rigid_mask(s.materials), bool))[1]
-    body = np.asarray(s.body_id)
-    for i, k in enumerate(bodies):
-        out[i] = int(rigid_sdf.round_body(X0[(body == k) & (np.asarray(s.p_mass) > 0)]))
-    return out
+    # round 66: the round bodies' slots (1: the point contact, point_contact.py; 0: the band), their lattices
+    eng.rc_points = data.get("points")
+    on = np.zeros(len(bodies), np.int32) if eng.rc_points is None else eng.rc_points["on"]
+    eng.rc_pt = wp.array(np.asarray(on, np.int32), dtype=wp.int32, device=d)
 
 
 def with_mark(eng, Ft, launches: list) -> list:

@@ -275,35 +275,14 @@ def build_point_contact(Ft):
 
 
 def allocate_points(eng) -> None:
-    """Each slot's lattice (``gasp_core.mpm.rigid_sdf.body_sdf`` of its body's rest points) and the points' marks."""
-    from gasp_core.mpm.rigid import body_frames, rigid_mask
-    from gasp_core.mpm.rigid_sdf import body_sdf
-    setup, d = eng.setup, eng.device
-    rigid = np.asarray(rigid_mask(setup.materials), bool)
-    _, X0, _, _ = body_frames(setup.x, setup.p_mass, setup.body_id, rigid)
-    body = np.asarray(setup.body_id)
-    phis, grads, org, hs, dims, base = [], [], [], [], [], 0
-    for k, on in zip(eng.rc_bodies.numpy(), eng.rc_pt.numpy()):
-        if not on:   # a body with faces: no lattice (one voxel)
-            phis.append(np.ones(1))
-            grads.append(np.zeros((1, 3)))
-            org.append(np.zeros(3))
-            hs.append(1.0)
-            dims += [1, 1, 1, base]
-            base += 1
-            continue
-        sdf = body_sdf(X0[body == k], eng.dx)
-        phis.append(sdf["phi"].reshape(-1))
-        grads.append(sdf["grad"].reshape(-1, 3))
-        org.append(sdf["origin"])
-        hs.append(sdf["h"])
-        dims += [*sdf["phi"].shape, base]
-        base += sdf["phi"].size
-    eng.pc_phi = wp.array(np.concatenate(phis).astype(np.float32), dtype=wp.float32, device=d)
-    eng.pc_grad = wp.array(np.concatenate(grads).astype(np.float32), dtype=wp.vec3f, device=d)
-    eng.pc_org = wp.array(np.asarray(org, np.float64), dtype=vec3d, device=d)
-    eng.pc_h = wp.array(np.asarray(hs, np.float64), dtype=wp.float64, device=d)
-    eng.pc_dim = wp.array(np.asarray(dims, np.int32), dtype=wp.int32, device=d)
+    """Each slot's lattice (``gasp_core.mpm.rigid_sdf.point_data``, read with the collider's data) and the points'
+    marks."""
+    pts, d = eng.rc_points, eng.device
+    eng.pc_phi = wp.array(pts["phi"], dtype=wp.float32, device=d)
+    eng.pc_grad = wp.array(pts["grad"], dtype=wp.vec3f, device=d)
+    eng.pc_org = wp.array(pts["origin"], dtype=vec3d, device=d)
+    eng.pc_h = wp.array(pts["h"], dtype=wp.float64, device=d)
+    eng.pc_dim = wp.array(pts["dims"], dtype=wp.int32, device=d)
     eng.pc_s = wp.zeros(eng.n_material, dtype=wp.int32, device=d)
     eng.pc_n = wp.zeros(eng.n_material, dtype=vec3d, device=d)
     eng.pc_b = wp.zeros(eng.n_material, dtype=wp.float64, device=d)
