@@ -8,7 +8,7 @@ cell less the blur's rounding, its normals radial within a few degrees), and one
 approaching point stopped along the normal, the body's reaction its momentum's opposite, a frictionless contact on a
 ball with no moment about its centre beyond the shape's lumps).
 
-Slow tier (warp_mpm): a 3 cm rigid ball set on a jelly slab rests (drop 3.88 mm: 2.93 the contact radius's shrink,
+Slow tier (warp_mpm, taichi_mpm): a 3 cm rigid ball set on a jelly slab rests (drop 3.88 mm: 2.93 the contact radius's shrink,
 0.95 its sink; 0.08 mm in the last 0.125 s) (the point contact holds it, where without the
 penetration's way out, ``BIAS`` 0, the contact is a dashpot and the ball sinks at a steady 3 cm/s, and without the
 reaction the ball falls through the slab: the catches).
@@ -104,10 +104,10 @@ def test_a_frictionless_contact_on_a_ball_turns_it_little():
 SLOW = pytest.mark.slow
 
 
-def _rest(**consts):
+def _rest(engine="warp_mpm", **consts):
     """The ball's centre drop (mm) over 0.25 s and from 0.125 to 0.25 s, set at rest on the jelly slab of
     ``ball_roll_soft.py`` (n_grid 32, R 3 cm, mu 0.5) with the point contact on."""
-    pytest.importorskip("gasp_warp_mpm")
+    pytest.importorskip(f"gasp_{engine}")
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks" / "studies"))
     from ball_roll_soft import roll_setup
     from gasp_core.seam.build import build_engine
@@ -119,7 +119,7 @@ def _rest(**consts):
     try:
         s = roll_setup(32, 0.03, 0.0, 0.5, "elastic", 0.0)
         nb = int(np.sum(np.asarray(s.body_id) == 0))
-        e = build_engine(get_engine("warp_mpm"), s)
+        e = build_engine(get_engine(engine), s)
         z = []
         for _ in range(60):
             e.step_frame()
@@ -142,13 +142,15 @@ def _rests(drop, late) -> bool:
 
 
 @SLOW
-def test_a_ball_rests_on_jelly_by_the_point_contact():
-    drop, late = _rest()
+@pytest.mark.parametrize("engine", ["warp_mpm", "taichi_mpm"])
+def test_a_ball_rests_on_jelly_by_the_point_contact(engine):
+    drop, late = _rest(engine)
     assert _rests(drop, late), (drop, late)
 
 
 @SLOW
-@pytest.mark.parametrize("consts", [{"BIAS": 0.0}, {"REACT_POINTS": 0}])
-def test_the_rest_check_catches_broken_point_contacts(consts):
-    drop, late = _rest(**consts)
+@pytest.mark.parametrize("engine,consts", [("warp_mpm", {"BIAS": 0.0}), ("warp_mpm", {"REACT_POINTS": 0}),
+                                           ("taichi_mpm", {"BIAS": 0.0})])
+def test_the_rest_check_catches_broken_point_contacts(engine, consts):
+    drop, late = _rest(engine, **consts)
     assert not _rests(drop, late), (consts, drop, late)
