@@ -20,6 +20,9 @@ n_grid 32, ball radius 3 cm, frames of 1/240 s), against Newton and Coulomb:
   hysteresis, no rolling resistance; Hertz's sink 1.2 mm, 0.08 dx), so the ball rolls on; measured 0.445 -> 0.081
   m/s in 0.2 s, its centre 9 mm up.
 
+Round 66 (``docs/rigid.md`` "Round 66"): the same checks with the rigid collider's point contact on
+(``gasp_core.mpm.rigid_sdf.POINT_CONTACT``, off by default), at the end of the module.
+
 The soft slab's are strict xfails with their figures; the control (rolling on a rigid slab, frictionless: speed and spin kept to
 0.5 %) passes, so the measure reads a rolling ball right. Tolerance 5 % either way. Slow (marked).
 """
