@@ -20,6 +20,9 @@ n_grid 32, ball radius 3 cm, frames of 1/240 s), against Newton and Coulomb:
   hysteresis, no rolling resistance; Hertz's sink 1.2 mm, 0.08 dx), so the ball rolls on; measured 0.445 -> 0.081
   m/s in 0.2 s, its centre 9 mm up.
 
+Round 66 (``docs/rigid.md`` "Round 66"): the same checks with the rigid collider's point contact on
+(``gasp_core.mpm.rigid_sdf.POINT_CONTACT``, off by default), at the end of the module.
+
 The soft slab's are strict xfails with their figures; the control (rolling on a rigid slab, frictionless: speed and spin kept to
 0.5 %) passes, so the measure reads a rolling ball right. Tolerance 5 % either way. Slow (marked).
 """
@@ -161,3 +164,101 @@ def test_a_ball_rolls_on_an_elastic_slab(engine):
     _engine(engine)
     r = measure_roll(engine, 32, mu=0.5, slab="elastic")
     assert abs(r["v"][1] / r["v"][0] - 1.0) < TOL, r
+
+
+# Round 66 (docs/rigid.md "Round 66: a ball rolls on a soft body"): the rigid collider's contact by the soft points
+# against the rigid body's shape (gasp_core.mpm.rigid_sdf.POINT_CONTACT, off by default; warp_mpm only). The two
+# checks above with it on; the rows that miss 5 % are strict xfails with their figures.
+POINT_MISSES = {
+    (48, 0.045, 0.0): "round 66: n_grid 48, R 4.5 cm, frictionless: w R 0.500 -> 0.579 (+16 %; the lattice ball's "
+                      "facets' normals, an exact sphere's distance keeps it to 0.0 %)",
+    (48, 0.03, 0.5): "round 66: n_grid 48, R 3 cm, mu 0.5: w R 0.500 -> 0.449 (-10 %)",
+    (32, 0.03, 0.5): "round 66: n_grid 32, R 3 cm, mu 0.5: w R 0.500 -> 0.467 (-6.6 %)",
+    (32, 0.045, 0.0): "round 66: n_grid 32, R 4.5 cm, frictionless: v 0.500 -> 0.465 (-7.0 %), w R +5.0 %",
+}
+
+
+def _point_roll(n_grid: int, R: float, mu: float, engine: str = "warp_mpm", block: bool = False, **consts):
+    import gasp_core.mpm.rigid_sdf as sdf
+    _engine(engine)
+    old = {k: getattr(sdf, k) for k in ("POINT_CONTACT", *consts)}
+    sdf.POINT_CONTACT = True
+    for k, v in consts.items():
+        setattr(sdf, k, v)
+    try:
+        return measure_roll(engine, n_grid, R=R, mu=mu, slab="elastic", block=block)
+    finally:
+        for k, v in old.items():
+            setattr(sdf, k, v)
+
+
+def _keeps(r) -> bool:
+    """Speed and spin each within 5 % of the first frame's (a rolling ball on an elastic slab: no torque without
+    friction, no slip with it, no rolling resistance without hysteresis)."""
+    return abs(r["v"][1] / r["v"][0] - 1.0) < TOL and abs(r["spin"][1] / r["spin"][0] - 1.0) < TOL
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("engine,n_grid,R,mu", [("taichi_mpm", 32, 0.03, 0.0), ("taichi_mpm", 32, 0.045, 0.5)])
+def test_with_the_point_contact_taichi_mpm_rolls_as_warp_mpm(engine, n_grid, R, mu):
+    """taichi_mpm's port (``gasp_taichi_mpm/point_contact.py``): warp_mpm's figures to the digits printed."""
+    r = _point_roll(n_grid, R, mu, engine)
+    assert _keeps(r), r
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("n_grid,R,mu", [
+    (32, 0.03, 0.0),
+    pytest.param(32, 0.03, 0.5, marks=pytest.mark.xfail(strict=True, reason=POINT_MISSES[(32, 0.03, 0.5)])),
+    pytest.param(32, 0.045, 0.0, marks=pytest.mark.xfail(strict=True, reason=POINT_MISSES[(32, 0.045, 0.0)])),
+    (32, 0.045, 0.5), (48, 0.03, 0.0),
+    pytest.param(48, 0.03, 0.5, marks=pytest.mark.xfail(strict=True, reason=POINT_MISSES[(48, 0.03, 0.5)])),
+    pytest.param(48, 0.045, 0.0, marks=pytest.mark.xfail(strict=True, reason=POINT_MISSES[(48, 0.045, 0.0)]))])
+def test_with_the_point_contact_a_ball_rolls_on_jelly(n_grid, R, mu):
+    r = _point_roll(n_grid, R, mu)
+    assert _keeps(r), r
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("engine,consts", [("warp_mpm", {"REACT_POINTS": 0}), ("warp_mpm", {"BIAS": 0.0}),
+                                           ("taichi_mpm", {"REACT_POINTS": 0})])
+def test_the_point_rolling_check_catches_broken_contacts(engine, consts):
+    """The catches: the reaction dropped (the ball falls through the slab), no way out of the penetration (a
+    dashpot: the ball sinks and ploughs)."""
+    r = _point_roll(32, 0.03, 0.0, engine, **consts)
+    assert not _keeps(r), (consts, r)
+
+
+def _slides(r) -> bool:
+    """Still sliding after 0.05 s (thrown at 0.5 m/s with no spin, mu 0.1): Coulomb's friction spins the ball up at
+    ``mu g`` over ``k`` only (with the engines' inertia: ``w R`` 0.084 against ``v`` 0.455 m/s, a ratio of 0.18; it
+    rolls at 0.146 s); measured with the point contact 0.101 against 0.428 (0.24: the first bounce's load above the
+    weight). The check: the ratio under 1/2 and the spin up (over 0.05 m/s): a contact that rolls at once fails it."""
+    return r["spin"][1] / r["v"][1] < 0.5 and r["spin"][1] > 0.05
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("consts,slides", [({}, True), ({"FRICTION_CAP": 0}, False)])
+def test_the_point_contact_caps_friction_at_coulombs(consts, slides):
+    """The point contact's Coulomb cap, and its catch: without the cap (``FRICTION_CAP`` 0: the stuck change whole)
+    the ball rolls at once (measured ``w R`` 0.278 against ``v`` 0.333 m/s at 0.05 s)."""
+    import gasp_core.mpm.rigid_sdf as sdf
+    _engine("warp_mpm")
+    old = {k: getattr(sdf, k) for k in ("POINT_CONTACT", *consts)}
+    sdf.POINT_CONTACT = True
+    for k, v in consts.items():
+        setattr(sdf, k, v)
+    try:
+        r = measure_roll("warp_mpm", 32, R=RADIUS, mu=0.1, slab="elastic", spin=0.0, T=0.05)
+    finally:
+        for k, v in old.items():
+            setattr(sdf, k, v)
+    assert _slides(r) == slides, (consts, r)
+
+
+@pytest.mark.slow
+def test_with_the_point_contact_a_ball_rolls_on_jelly_among_three_bodies():
+    """Three bodies (a rigid block on the slab's far end: round 64's slots, the block's by the band): frictionless,
+    measured v -3.4 %, w R -3.0 % (main: w R 0.270 -> -0.009)."""
+    r = _point_roll(32, 0.03, 0.0, block=True)
+    assert _keeps(r), r

@@ -13,7 +13,11 @@ its centre) at the start and after ``T`` s, and the rise of its centre (mm; over
 
     python benchmarks/studies/ball_roll_soft.py --engine warp_mpm --n-grid 32 --mu 0.5 --slab elastic
 
-Figures: ``docs/rigid.md`` ("Round 65: a ball rolling on a soft slab").
+Round 66: ``--points 1`` takes the rigid collider's contact by the soft points against the ball's shape
+(``gasp_core.mpm.rigid_sdf.POINT_CONTACT``; warp_mpm), ``--set NAME=VALUE`` a constant of ``rigid_sdf`` (a broken
+variant: ``REACT_POINTS=0``, ``BIAS=0``, ``FRICTION_CAP=0``).
+
+Figures: ``docs/rigid.md`` ("Round 65: a ball rolling on a soft slab", "Round 66: a ball rolls on a soft body").
 """
 from __future__ import annotations
 
@@ -91,7 +95,15 @@ def main() -> None:
     ap.add_argument("--T", type=float, default=0.2)
     ap.add_argument("--spin", type=float, default=1.0, help="the given w R / v0 (0: thrown sliding)")
     ap.add_argument("--block", action="store_true", help="a third body: a rigid block on the slab's far end")
+    ap.add_argument("--points", type=int, default=None, help="round 66: rigid_sdf.POINT_CONTACT (1 on, 0 off)")
+    ap.add_argument("--set", nargs="*", default=[], help="NAME=VALUE on gasp_core.mpm.rigid_sdf (broken variants)")
     a = ap.parse_args()
+    from gasp_core.mpm import rigid_sdf
+    if a.points is not None:
+        rigid_sdf.POINT_CONTACT = bool(a.points)
+    for kv in a.set:
+        k, val = kv.split("=")
+        setattr(rigid_sdf, k, type(getattr(rigid_sdf, k))(float(val)))
     print("| engine | n_grid | R (cm) | slab | mu | v (m/s): start -> end | w R (m/s): start -> end | rise (mm) |")
     print("|---|---|---|---|---|---|---|---|")
     for n in a.n_grid:

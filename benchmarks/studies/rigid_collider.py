@@ -37,7 +37,10 @@ def main() -> None:
     ap.add_argument("--E", default="1e5")
     ap.add_argument("--slides", action="store_true")
     ap.add_argument("--set", nargs="*", default=[])
+    ap.add_argument("--points", type=int, default=0, help="round 66: gasp_core.mpm.rigid_sdf.POINT_CONTACT")
     a = ap.parse_args()
+    import gasp_core.mpm.rigid_sdf as SDF
+    SDF.POINT_CONTACT = bool(a.points)
     import gasp_core.mpm.rigid_collider as RC
     RC.RIGID_COLLIDER = a.rule == "on"
     mod = importlib.import_module(f"gasp_{a.engine}.rigid_collider")

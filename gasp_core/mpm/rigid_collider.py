@@ -224,12 +224,14 @@ def collider_data(setup) -> dict | None:
     view = step_view(setup)
     rigid = np.flatnonzero(np.asarray(rigid_mask(view.materials)))
     nb = len(view.materials)
+    out = None
     if collider_on(view):
-        return {"bodies": rigid[:1].astype(np.int32), "cols": np.zeros(nb, np.int32), "mus": None, "multi": False}
-    if collider_multi(view):
+        out = {"bodies": rigid[:1].astype(np.int32), "cols": np.zeros(nb, np.int32), "mus": None, "multi": False}
+    elif collider_multi(view):
         if PAIR_MU:
-            return {"bodies": rigid.astype(np.int32), "cols": np.arange(nb, dtype=np.int32),
-                    "mus": pair_frictions(view.materials, rigid, bool(PAIR_SWAP)), "multi": True}
-        return {"bodies": rigid.astype(np.int32), "cols": np.zeros(nb, np.int32),
-                "mus": slot_frictions(view.materials, rigid)[:, None], "multi": True}
-    return None
+            out = {"bodies": rigid.astype(np.int32), "cols": np.arange(nb, dtype=np.int32),
+                   "mus": pair_frictions(view.materials, rigid, bool(PAIR_SWAP)), "multi": True}
+        else:
+            out = {"bodies": rigid.astype(np.int32), "cols": np.zeros(nb, np.int32),
+                   "mus": slot_frictions(view.materials, rigid)[:, None], "multi": True}
+    return out

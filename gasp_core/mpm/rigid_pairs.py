@@ -73,6 +73,9 @@ def pair_data(setup) -> tuple:
     rc = collider_data(setup)
     if rc is not None:
         rc["boxes"] = body_boxes(step_view(setup))
+    if rc is not None:   # round 66: the round bodies' point contact (gasp_core.mpm.rigid_sdf)
+        from gasp_core.mpm.rigid_sdf import POINT_CONTACT, point_data
+        rc["points"] = point_data(setup, rc["bodies"]) if POINT_CONTACT else None
     return body_boxes(setup), pair_frictions(setup), rc
 
 

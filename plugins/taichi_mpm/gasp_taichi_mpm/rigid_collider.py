@@ -22,6 +22,7 @@ from gasp_core.mpm import rigid_collider as core_collider
 from gasp_core.mpm.fields import MIN_FRACTION, MIN_GRADIENT
 
 from .collider_pair import NA, NP, ColliderPair
+from .point_contact import PointContact
 
 #: Deliberately broken variants for the checks (as warp_mpm's): REACT 0 gives the body no reaction; FRICTION 0 a
 #: frictionless collider.
@@ -31,7 +32,7 @@ IMPLICIT = 1   # 0: no solve, the body's reaction explicit (a broken variant: th
 
 
 @ti.data_oriented
-class RigidCollider(ColliderPair):
+class RigidCollider(ColliderPair, PointContact):
     """The collider's fields and kernels (none without it: ``rc_on`` False)."""
 
     rc_on = False
@@ -76,6 +77,7 @@ class RigidCollider(ColliderPair):
         self.rc_o = ti.field(ti.i32, shape=(ng, ng, ng))
         self.rc_acc = ti.field(ti.f64, shape=NA * len(bodies))
         self.rc_react = ti.Vector.field(6, ti.f64, shape=nb)
+        self.allocate_points(collider.get("points"))   # round 66: the round bodies' point contact (rc_pt)
 
     @ti.func
     def rc_node(self, idx, lo, ext):
@@ -153,7 +155,7 @@ class RigidCollider(ColliderPair):
                                    self.mass_b_seen(I + ey) - self.mass_b_seen(I - ey),
                                    self.mass_b_seen(I + ez) - self.mass_b_seen(I - ez)])
                     ln = n.norm()
-                    if d <= band and ln > MIN_GRADIENT * m:
+                    if d <= band and self.rc_pt[s] == 0 and ln > MIN_GRADIENT * m:   # round 66: a round body's not
                         flag = 1.0
                         nh = n / ln   # into B: out of the rigid body where it is A
                         if ra == 0:
@@ -342,3 +344,5 @@ class RigidCollider(ColliderPair):
         self.collider_fsum()
         self.collider_coulomb()
         self.collider_apply()
+        if self.pc_on:   # round 66: the round bodies' contact by the soft points (point_contact.py)
+            self.point_pass()

@@ -41,6 +41,10 @@ def allocate_collider(eng, Ft) -> None:
     eng.rc_o = wp.zeros(n, dtype=wp.int32, device=d)
     eng.rc_box = wp.array(np.asarray(data["boxes"], np.float64).reshape(-1, 3), dtype=vec3d, device=d)
     eng.rc_acc = wp.zeros(int(rc.NA) * len(bodies), dtype=wp.float64, device=d)
+    # round 66: the round bodies' slots (1: the point contact, point_contact.py; 0: the band), their lattices
+    eng.rc_points = data.get("points")
+    on = np.zeros(len(bodies), np.int32) if eng.rc_points is None else eng.rc_points["on"]
+    eng.rc_pt = wp.array(np.asarray(on, np.int32), dtype=wp.int32, device=d)
 
 
 def with_mark(eng, Ft, launches: list) -> list:
@@ -59,19 +63,24 @@ def with_mark(eng, Ft, launches: list) -> list:
         eng.field_rule % 2, eng.rc_m, eng.rc_n, eng.grid_dv, eng.in_a, eng.rc_bodies, eng.rc_ns, eng.rc_multi,
         int(bool(GROUND_MIRROR)), float(core_collider.BAND * eng.dx),
         eng.k.vec3(*[float(c) for c in eng.setup.domain_lo]), Ft(eng.dx), eng.rc_o, eng.rb_c, eng.rb_R, eng.rc_box,
-        float(NODE_PAD * eng.dx), eng.rc_sb])
+        float(NODE_PAD * eng.dx), eng.rc_sb, eng.rc_pt])
     at = len(launches) - 1 - int(eng.flow_touch_on or eng.gap_touch_on)
     return launches[:at] + [mark] + launches[at:]
 
 
-def collider_launches(eng, Ft) -> list:
-    """The recorded collider pass after the grid update, before G2P; none where off (allocated here, before
-    :func:`with_mark`). Node passes over the grid; ``rc_psum`` (round 64) over the material points; ``rc_body``,
-    ``rc_solve`` one thread a slot (``rc_ns`` rigid bodies), ``rc_coulomb`` one thread a pair (round 65: ``rc_ns``
-    times ``rc_ncol``)."""
+def collider_launches(eng, Ft, g2p) -> list:
+    """The recorded collider pass after the grid update, before G2P (``g2p``, returned after it); none where off
+    (allocated here, before :func:`with_mark`). Node passes over the grid; ``rc_psum`` (round 64) over the material
+    points; ``rc_body``, ``rc_solve`` one thread a slot (``rc_ns`` rigid bodies), ``rc_coulomb`` one thread a pair
+    (round 65: ``rc_ns`` times ``rc_ncol``). Round 66 (``gasp_core.mpm.rigid_sdf.POINT_CONTACT``): ``V*`` only before
+    G2P, the contact by the soft points after it (``point_contact.py``)."""
     allocate_collider(eng, Ft)
     if not eng.rc_on:
-        return []
+        return [g2p]
+    return _collider_launches(eng, Ft, g2p)
+
+
+def _collider_launches(eng, Ft, g2p) -> list:
     _, c_sum, c_body, c_layer, c_solve, c_fsum, c_coulomb, c_apply, c_psum = rc.build_collider(Ft)
     n, d, ng, ns = eng.n_grid ** 3, eng.device, eng.n_grid, eng.rc_ns
     lo = eng.k.vec3(*[float(c) for c in eng.setup.domain_lo])
@@ -89,9 +98,13 @@ def collider_launches(eng, Ft) -> list:
         out += [wp.launch(c_layer, dim=n, device=d, record_cmd=True, inputs=[eng.grid_v, eng.grid_dv, *geo, mode]),
                 wp.launch(c_solve, dim=ns, device=d, record_cmd=True, inputs=[*solve, mode, rc.IMPLICIT])]
     pairs = [eng.rc_sb, eng.rc_cols, eng.rc_ncol, eng.rc_pacc]   # round 65: Coulomb's per pair (collider_pair.py)
+    points = []
+    if eng.rc_pt.numpy().any():   # round 66: the round bodies' contact by the soft points (point_contact.py)
+        from .point_contact import point_launches
+        points = point_launches(eng, Ft, c_solve, c_coulomb)
     return out + [
         wp.launch(c_fsum, dim=n, device=d, record_cmd=True, inputs=[eng.grid_v, eng.grid_dv, *geo, *pairs]),
         wp.launch(c_coulomb, dim=ns * eng.rc_ncol, device=d, record_cmd=True, inputs=[
             eng.rc_pacc, eng.rc_mus, float(rc.FRICTION)]),
         wp.launch(c_apply, dim=n, device=d, record_cmd=True, inputs=[
-            eng.grid_v, eng.grid_dv, *geo, *pairs, eng.acc_p, eng.acc_l, rc.REACT])]
+            eng.grid_v, eng.grid_dv, *geo, *pairs, eng.acc_p, eng.acc_l, rc.REACT])] + points + [g2p]

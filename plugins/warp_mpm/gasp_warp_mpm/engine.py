@@ -236,8 +236,8 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
                 self.grid_m]),
         ] + hold_launches(self, Ft, has_extras, ex) + self._rigid_launches(Ft)
         self._pre, fixes = balance_for(self, k, lo_v, dx, dt_f, ex)   # the balance's; then round 49's, held.py's
-        self._launches[2:2] = (self.share_launches(Ft) + fixes + mirror_launches(self, Ft, has_extras, ex)
-                               + collider_launches(self, Ft))   # round 63: rigid_collider.py
+        self._launches[2:3] = (self.share_launches(Ft) + fixes + mirror_launches(self, Ft, has_extras, ex)
+                               + collider_launches(self, Ft, self._launches[2]))   # round 63; G2P, round 66's points
         # after P2G: touch.py, fields.py (round 62's push before the fields' clear: pair_push.py; round 63's mark)
         self._launches[1:1] = self.touch_launches(Ft) + with_push(self, Ft, with_mark(self, Ft, field_launches(self, Ft)))
         # passive points after the grid update (forces, colliders, boundaries in the grid velocity): one launch per

@@ -88,7 +88,7 @@ def build_collider(Ft):
                 in_a: wp.array(dtype=wp.int32), bodies: wp.array(dtype=wp.int32), ns: int, multi: int,
                 mirror: int, band: wp.float64, lo: vec3, dx: Ft, rc_o: wp.array(dtype=wp.int32),
                 centre: wp.array(dtype=vec3d), rot: wp.array(dtype=mat33d), box: wp.array(dtype=vec3d),
-                pad: wp.float64, rc_sb: wp.array(dtype=wp.int32)):
+                pad: wp.float64, rc_sb: wp.array(dtype=wp.int32), rc_pt: wp.array(dtype=wp.int32)):
         node = wp.tid()
         nn = n_grid * n_grid
         n_nodes = nn * n_grid
@@ -132,7 +132,7 @@ def build_collider(Ft):
                     if flow_touch.shape[0] > 1:
                         touch = flow_touch[node] != 0
                 else:   # the body's shape: within band (m) of its points' box, in its frame
-                    touch = d <= band
+                    touch = d <= band and rc_pt[s] == 0   # round 66: not a round body's (point_contact.py)
                 # field B's normal (fields.build_b_normal), as grad m_R: into the rigid body (the rigid field's own
                 # mass gradient ploughed the slides, -97.7 %: docs/rigid.md "Round 63")
                 gr = b_normal(grid_mv, grid_sv, ground, node, n_grid, mirror)
