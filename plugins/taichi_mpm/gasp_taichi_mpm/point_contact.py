@@ -84,7 +84,7 @@ class PointContact:
 
     @ti.func
     def pc_system(self, o, P, r, b1):
-        """Round 63's sums of ``A`` and ``b`` for one point (``collider_layer``'s layout)."""
+        """Round 63's sums of ``A`` and ``b`` for one node or point (``collider_layer``'s layout; both call it)."""
         S = ti.Matrix([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]], ti.f64)
         self.rc_add33(o + 20, P)
         self.rc_add33(o + 29, -(P @ S))

@@ -277,15 +277,7 @@ class RigidCollider(ColliderPair, PointContact):
                     b1 = m_s * u - b1
                     use = 1
                 if use != 0:
-                    S = ti.Matrix([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]], dt=ti.f64)
-                    self.rc_add33(o + 20, P)
-                    self.rc_add33(o + 29, -(P @ S))
-                    self.rc_add33(o + 38, S @ P)
-                    self.rc_add33(o + 47, -(S @ P @ S))
-                    b2 = r.cross(b1)
-                    for ax in ti.static(range(3)):
-                        self.rc_acc[o + 56 + ax] += b1[ax]
-                        self.rc_acc[o + 59 + ax] += b2[ax]
+                    self.pc_system(o, P, r, b1)   # the sums of A and b (point_contact.py: shared with the points)
 
     @ti.func
     def rc_get33(self, at):
