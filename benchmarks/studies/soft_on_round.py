@@ -60,11 +60,12 @@ def round_setup(case: str, n_grid: int = 32, E: float = 1.0e5, rho_ball: float =
     return s
 
 
-def measure(engine: str, case: str, n_grid: int = 32, E: float = 1.0e5, rho_ball: float = 1000.0) -> dict:
+def measure(engine: str, case: str, n_grid: int = 32, E: float = 1.0e5, rho_ball: float = 1000.0,
+            v0: float = 0.5) -> dict:
     """The figures of the module notes for ``case`` on ``engine`` (the switch as it stands)."""
     from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import get_engine
-    s = round_setup(case, n_grid, E, rho_ball)
+    s = round_setup(case, n_grid, E, rho_ball, v0)
     dx = s.dx
     body = np.asarray(s.body_id)
     x0 = np.asarray(s.x, float)
@@ -102,13 +103,14 @@ def main() -> None:
     ap.add_argument("--points", type=int, nargs="+", default=[1, 0])
     ap.add_argument("--n-grid", type=int, default=32)
     ap.add_argument("--rho-ball", type=float, default=1000.0)
+    ap.add_argument("--v0", type=float, default=0.5, help="ball_beside: the ball's speed (m/s)")
     a = ap.parse_args()
     from gasp_core.mpm import rigid_sdf
     for case in a.case:
         for p in a.points:
             rigid_sdf.POINT_CONTACT = bool(p)
-            r = measure(a.engine, case, a.n_grid, rho_ball=a.rho_ball)
-            print(f"| {a.engine} | {case} | rho_ball {a.rho_ball:g} | points {p} | "
+            r = measure(a.engine, case, a.n_grid, rho_ball=a.rho_ball, v0=a.v0)
+            print(f"| {a.engine} | {case} | rho_ball {a.rho_ball:g} | v0 {a.v0:g} | points {p} | "
                   + " | ".join(f"{k} {v:+.3f}" for k, v in r.items()) + " |", flush=True)
 
 
