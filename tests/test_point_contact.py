@@ -12,6 +12,12 @@ Slow tier (warp_mpm, taichi_mpm): a 3 cm rigid ball set on a jelly slab rests (d
 0.95 its sink; 0.08 mm in the last 0.125 s) (the point contact holds it, where without the
 penetration's way out, ``BIAS`` 0, the contact is a dashpot and the ball sinks at a steady 3 cm/s, and without the
 reaction the ball falls through the slab: the catches).
+
+Round 66 softtop (slow, warp_mpm; ``docs/rigid.md`` "Round 66: the point contact under a soft body (softtop)"): a
+jelly cube and a jelly ball resting on a rigid ball of radius 4.5 cm on the ground hold their gap within 0.1 dx, and
+the rigid ball thrown into a jelly cube on the ground gives it its momentum (within 5 %): the band passes, the point
+contact is a strict xfail in each (the soft points' change dropped: the jelly falls through, the ball bounces off a
+cube that takes nothing).
 """
 from __future__ import annotations
 
@@ -154,3 +160,76 @@ def test_a_ball_rests_on_jelly_by_the_point_contact(engine):
 def test_the_rest_check_catches_broken_point_contacts(engine, consts):
     drop, late = _rest(engine, **consts)
     assert not _rests(drop, late), (consts, drop, late)
+
+
+# Round 66 (softtop, docs/rigid.md "Round 66: the point contact under a soft body (softtop)"): the configurations a
+# user builds with a round rigid body under or beside a soft one (``benchmarks/studies/soft_on_round.py``'s scenes,
+# warp_mpm, n_grid 32, jelly E 1e5). The band (the switch off) holds them; the point contact does not (strict xfails:
+# the next session sees them pass once it does).
+
+def _round_scene(case, points, T):
+    """``(setup, positions, velocities)`` of ``soft_on_round.round_setup(case)`` run ``T`` s on warp_mpm with
+    ``POINT_CONTACT`` ``points``, positions at 0.3 s and at ``T`` (the rest scenes: ``T`` 1.0 s)."""
+    pytest.importorskip("gasp_warp_mpm")
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks" / "studies"))
+    from soft_on_round import round_setup
+    from gasp_core.seam.build import build_engine
+    from gasp_core.seam.plugins import get_engine
+    rigid_sdf.POINT_CONTACT = points
+    try:
+        s = round_setup(case)
+        e = build_engine(get_engine("warp_mpm"), s)
+        xs = []
+        for f in range(round(T / s.frame_dt)):
+            e.step_frame()
+            if f + 1 in (round(0.3 / s.frame_dt), round(T / s.frame_dt)):
+                xs.append(e.positions().astype(float))
+        v = e.velocities().astype(float)
+        e.close()
+    finally:
+        rigid_sdf.POINT_CONTACT = False
+    return s, xs, v
+
+
+def _gap_holds(case, points):
+    """The upper body's (0) lowest point less the ball's (1) highest: its settle from the start to 0.3 s and its
+    drift from 0.3 to 1.0 s within 0.1 dx each (``tests/test_soft_on_rigid_rest.py``'s measure)."""
+    s, (x0, x1), _ = _round_scene(case, points, 1.0)
+    b, dx = np.asarray(s.body_id), s.dx
+    gap = [x[b == 0, 2].min() - x[b == 1, 2].max() for x in (np.asarray(s.x, float), x0, x1)]
+    settle, drift = (gap[1] - gap[0]) / dx, (gap[2] - gap[1]) / dx
+    return abs(settle) < 0.1 and abs(drift) < 0.1, (settle, drift)
+
+
+REST_ON_BALL = [pytest.param(c, p, id=f"{c}-{'points' if p else 'band'}",
+                             marks=[pytest.mark.xfail(strict=True, reason="the point contact: the soft body falls "
+                                                      "through the rigid ball under it (softtop)")] if p else [])
+                for c in ("jelly_on_ball", "jball_on_ball") for p in (True, False)]
+
+
+@SLOW
+@pytest.mark.parametrize("case,points", REST_ON_BALL)
+def test_a_soft_body_rests_on_a_rigid_ball(case, points):
+    """A 6 cm jelly cube / a 3 cm jelly ball on a rigid ball of radius 4.5 cm on the ground: measured (warp_mpm,
+    taichi_mpm the same digits) the band settle +0.006 / +0.001 dx, drift +0.007 / +0.006; the point contact settle
+    -10.8 / -4.8 dx, drift -21.9 / -4.4 (the jelly falls through, the ball thrown up 27 / 3 dx)."""
+    ok, d = _gap_holds(case, points)
+    assert ok, d
+
+
+@SLOW
+@pytest.mark.parametrize("points", [pytest.param(True, id="points", marks=pytest.mark.xfail(
+    strict=True, reason="the point contact: the ball bounces off the jelly cube, which takes nothing (softtop)")),
+    pytest.param(False, id="band")])
+def test_a_rigid_ball_pushes_a_jelly_cube_beside_it(points):
+    """The rigid ball (R 4.5 cm, 0.38 kg) thrown at 0.5 m/s along the frictionless ground into a 6 cm jelly cube
+    (0.216 kg) 5 mm ahead: after 0.25 s the two bodies' momentum along x within 5 % of the ball's at the start, the
+    cube pushed forward and the ball not thrown back. Measured: the band 0.191 -> 0.191 kg m/s (ball +0.19 m/s,
+    cube +0.54 at 0.5 s); the point contact: the ball back at -0.35 m/s, the cube at 0.000 (-0.13 kg m/s)."""
+    s, _, v = _round_scene("ball_beside", points, 0.25)
+    b = np.asarray(s.body_id)
+    m = np.broadcast_to(np.asarray(s.p_mass, float), b.shape)
+    p0 = float((m * np.asarray(s.v, float)[:, 0]).sum())
+    p1 = float((m * v[:, 0]).sum())
+    vb, vc = v[b == 0, 0].mean(), v[b == 1, 0].mean()
+    assert abs(p1 / p0 - 1.0) < 0.05 and vc > 0.1 and vb > -0.05, (p0, p1, vb, vc)
