@@ -8,7 +8,9 @@ and where the point approaches it adds the point to the slot's normal system (``
 ``rc_solve`` mode 0; ``pc_layer`` the approaching points' tangential system; ``rc_solve`` mode 1; ``pc_fsum`` each
 pair's normal and stuck tangential impulse into ``pc_pacc`` (round 65's ``NP`` layout); ``rc_coulomb``; ``pc_apply``
 each approaching point's change (its velocity, and ``dt`` times it in its position) and the reaction to its slot's
-body's projection sums (``acc_p``, ``acc_l``, float64 atomics), read by this substep's rigid projection.
+body's projection sums (``acc_p``, ``acc_l``, float64 atomics), read by this substep's rigid projection; ``pc_node`` the
+nodes' velocities take the points' changes, divided by each field's node mass ``pc_m`` (kept by ``pc_mass`` after
+``rc_mark``, before the grid update and the fields' clear clear ``grid_mv`` and ``grid_sv``: round 66 pcfix).
 
 The lattices of all slots lie in one array (``pc_phi`` float32 distance, ``pc_grad`` its gradient), slot ``s`` at
 ``pc_dim[4 s + 3]`` with ``pc_dim[4 s: 4 s + 3]`` voxels, origin ``pc_org[s]``, spacing ``pc_h[s]``.
