@@ -169,13 +169,18 @@ def test_a_ball_rolls_on_an_elastic_slab(engine):
 # Round 66 (docs/rigid.md "Round 66: a ball rolls on a soft body"): the rigid collider's contact by the soft points
 # against the rigid body's shape (gasp_core.mpm.rigid_sdf.POINT_CONTACT, off by default; warp_mpm only). The two
 # checks above with it on; the rows that miss 5 % are strict xfails with their figures.
-POINT_MISSES = {
-    (48, 0.045, 0.0): "round 66: n_grid 48, R 4.5 cm, frictionless: w R 0.500 -> 0.579 (+16 %; the lattice ball's "
-                      "facets' normals, an exact sphere's distance keeps it to 0.0 %)",
-    (48, 0.03, 0.5): "round 66: n_grid 48, R 3 cm, mu 0.5: w R 0.500 -> 0.449 (-10 %)",
-    (32, 0.03, 0.5): "round 66: n_grid 32, R 3 cm, mu 0.5: w R 0.500 -> 0.467 (-6.6 %)",
-    (32, 0.045, 0.0): "round 66: n_grid 32, R 4.5 cm, frictionless: v 0.500 -> 0.465 (-7.0 %), w R +5.0 %",
+POINT_MISSES = {   # round 66 pcfix: measured with the soft side's change kept (the figures first merged dropped it)
+    (32, 0.03, 0.0): "n_grid 32, R 3 cm, frictionless: v 0.500 -> 0.460 (-8.0 %), w R -2.2 %",
+    (32, 0.03, 0.5): "n_grid 32, R 3 cm, mu 0.5: v -3.8 %, w R 0.500 -> 0.454 (-9.2 %)",
+    (32, 0.045, 0.0): "n_grid 32, R 4.5 cm, frictionless: v 0.500 -> 0.421 (-15.8 %), w R +7.6 %",
+    (32, 0.045, 0.5): "n_grid 32, R 4.5 cm, mu 0.5: v 0.500 -> 0.457 (-8.6 %), w R -8.4 %",
+    (48, 0.03, 0.0): "n_grid 48, R 3 cm, frictionless: v 0.500 -> 0.448 (-10.4 %), w R +5.4 %",
+    (48, 0.03, 0.5): "n_grid 48, R 3 cm, mu 0.5: v -6.2 %, w R 0.500 -> 0.438 (-12.4 %)",
+    (48, 0.045, 0.0): "n_grid 48, R 4.5 cm, frictionless: v -9.4 %, w R 0.500 -> 0.588 (+17.6 %; the lattice ball's "
+                      "facets' normals, an exact sphere's distance kept it to 0.0 % with the soft side dropped)",
 }
+# the figures of warp_mpm (n_grid 32, T 0.2 s) taichi_mpm's port is held to (v, w R at the last frame, m/s)
+POINT_FIGURES = {(32, 0.03, 0.0): (0.460, 0.489), (32, 0.045, 0.5): (0.457, 0.458)}
 
 
 def _point_roll(n_grid: int, R: float, mu: float, engine: str = "warp_mpm", block: bool = False, **consts):
@@ -198,22 +203,28 @@ def _keeps(r) -> bool:
     return abs(r["v"][1] / r["v"][0] - 1.0) < TOL and abs(r["spin"][1] / r["spin"][0] - 1.0) < TOL
 
 
+def _matches(r, figures) -> bool:
+    """The last frame's speed and spin within 1 % of ``figures`` (warp_mpm's, :data:`POINT_FIGURES`)."""
+    return abs(r["v"][1] / figures[0] - 1.0) < 0.01 and abs(r["spin"][1] / figures[1] - 1.0) < 0.01
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("engine,n_grid,R,mu", [("taichi_mpm", 32, 0.03, 0.0), ("taichi_mpm", 32, 0.045, 0.5)])
 def test_with_the_point_contact_taichi_mpm_rolls_as_warp_mpm(engine, n_grid, R, mu):
-    """taichi_mpm's port (``gasp_taichi_mpm/point_contact.py``): warp_mpm's figures to the digits printed."""
+    """taichi_mpm's port (``gasp_taichi_mpm/point_contact.py``): warp_mpm's figures within 1 % (both rows miss the
+    5 % rolling check on both engines since the soft side's change is kept: ``POINT_MISSES``)."""
     r = _point_roll(n_grid, R, mu, engine)
-    assert _keeps(r), r
+    assert _matches(r, POINT_FIGURES[(n_grid, R, mu)]), r
+
+
+def _row(n_grid, R, mu):
+    key = (n_grid, R, mu)
+    return pytest.param(*key, marks=pytest.mark.xfail(strict=True, reason=POINT_MISSES[key])) if key in POINT_MISSES \
+        else key
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("n_grid,R,mu", [
-    (32, 0.03, 0.0),
-    pytest.param(32, 0.03, 0.5, marks=pytest.mark.xfail(strict=True, reason=POINT_MISSES[(32, 0.03, 0.5)])),
-    pytest.param(32, 0.045, 0.0, marks=pytest.mark.xfail(strict=True, reason=POINT_MISSES[(32, 0.045, 0.0)])),
-    (32, 0.045, 0.5), (48, 0.03, 0.0),
-    pytest.param(48, 0.03, 0.5, marks=pytest.mark.xfail(strict=True, reason=POINT_MISSES[(48, 0.03, 0.5)])),
-    pytest.param(48, 0.045, 0.0, marks=pytest.mark.xfail(strict=True, reason=POINT_MISSES[(48, 0.045, 0.0)]))])
+@pytest.mark.parametrize("n_grid,R,mu", [_row(n, R, mu) for n in (32, 48) for R in (0.03, 0.045) for mu in (0.0, 0.5)])
 def test_with_the_point_contact_a_ball_rolls_on_jelly(n_grid, R, mu):
     r = _point_roll(n_grid, R, mu)
     assert _keeps(r), r
@@ -224,9 +235,13 @@ def test_with_the_point_contact_a_ball_rolls_on_jelly(n_grid, R, mu):
                                            ("taichi_mpm", {"REACT_POINTS": 0})])
 def test_the_point_rolling_check_catches_broken_contacts(engine, consts):
     """The catches: the reaction dropped (the ball falls through the slab), no way out of the penetration (a
-    dashpot: the ball sinks and ploughs)."""
-    r = _point_roll(32, 0.03, 0.0, engine, **consts)
-    assert not _keeps(r), (consts, r)
+    dashpot: the ball sinks and ploughs). warp_mpm on the row that keeps 5 % (n_grid 48, R 4.5 cm, mu 0.5);
+    taichi_mpm by its figures check (n_grid 32, R 3 cm, mu 0)."""
+    if engine == "warp_mpm":
+        assert not _keeps(_point_roll(48, 0.045, 0.5, engine, **consts)), consts
+    else:
+        r = _point_roll(32, 0.03, 0.0, engine, **consts)
+        assert not _matches(r, POINT_FIGURES[(32, 0.03, 0.0)]), (consts, r)
 
 
 def _slides(r) -> bool:
@@ -257,8 +272,11 @@ def test_the_point_contact_caps_friction_at_coulombs(consts, slides):
 
 
 @pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="round 66 pcfix: with the soft side's change kept, v 0.500 -> 0.460 (-8.0 %), "
+                   "w R -2.8 % (as the two-body row)")
 def test_with_the_point_contact_a_ball_rolls_on_jelly_among_three_bodies():
     """Three bodies (a rigid block on the slab's far end: round 64's slots, the block's by the band): frictionless,
-    measured v -3.4 %, w R -3.0 % (main: w R 0.270 -> -0.009)."""
+    measured v -8.0 %, w R -2.8 % (first merged, the soft side's change dropped: v -3.4 %, w R -3.0 %; main: w R
+    0.270 -> -0.009)."""
     r = _point_roll(32, 0.03, 0.0, block=True)
     assert _keeps(r), r

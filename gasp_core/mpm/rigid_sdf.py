@@ -64,6 +64,10 @@ FRICTION_CAP = 1
 #: it the contact is a dashpot: a ball at rest on jelly sank 14 mm in 0.25 s at a steady 3 cm/s).
 BIAS = 0.5
 REACT_POINTS = 1
+#: A broken variant: SOFT_SIDE 0 drops the soft points' change (the body alone takes the contact; the bug merged
+#: first in round 66: the nodes' masses read after the grid update had cleared them). 1: each field's node mass kept
+#: before the clear (``pc_m``).
+SOFT_SIDE = 1
 
 
 def round_body(X0: np.ndarray) -> bool:

@@ -50,6 +50,10 @@ class PointContact:
         self.pc_b = ti.field(ti.f64, shape=n)
         ng = self.n_grid
         self.pc_g = ti.Vector.field(3, ti.f64, shape=(2, ng, ng, ng))
+        # each field's node mass as P2G gave it, kept by collider_mark (the grid update and the fields' clear clear
+        # grid_mv and grid_sv before pc_node); SOFT_SIDE 0: a broken variant, the soft side's change dropped
+        self.pc_m = ti.field(self.real, shape=(2, ng, ng, ng))
+        self.pc_soft = int(rigid_sdf.SOFT_SIDE)
         self.pc_pacc = ti.field(ti.f64, shape=NP * ns * int(self.rc_ncol))
 
     @ti.func
@@ -209,8 +213,8 @@ class PointContact:
         lo, ext = self.touched_box()
         for idx in range(ext[0] * ext[1] * ext[2]):
             I = self.rc_node(idx, lo, ext)
-            m_a = self.grid_sv[I][3]
-            m_b = self.grid_mv[0, I][3] - m_a
+            m_a = self.pc_m[0, I]
+            m_b = self.pc_m[1, I]
             ga = self.pc_g[0, I]
             gb = self.pc_g[1, I]
             da = ti.Vector.zero(self.real, 3)
@@ -219,7 +223,8 @@ class PointContact:
                 da = ti.cast(ga / ti.cast(m_a, ti.f64), self.real)
             if m_b > 0.0:
                 db = ti.cast(gb / ti.cast(m_b, ti.f64), self.real)
-            self.grid_dv[I] += ti.Vector([da[0], da[1], da[2], db[0], db[1], db[2]])
+            if ti.static(self.pc_soft != 0):
+                self.grid_dv[I] += ti.Vector([da[0], da[1], da[2], db[0], db[1], db[2]])
             self.pc_g[0, I] = ti.Vector.zero(ti.f64, 3)
             self.pc_g[1, I] = ti.Vector.zero(ti.f64, 3)
 

@@ -161,6 +161,9 @@ class RigidCollider(ColliderPair, PointContact):
                         if ra == 0:
                             nh = -nh
             self.rc_m[I] = ti.Vector([m_r, m - m_r, flag])
+            if ti.static(self.pc_on):   # round 66: the fields' node masses for pc_node (point_contact.py)
+                self.pc_m[0, I] = m_a
+                self.pc_m[1, I] = m_b
             self.rc_n[I] = nh
             self.rc_o[I] = own
             self.rc_sb[0, I] = -1   # round 65: the nodes' soft bodies, written by collider_psum

@@ -64,8 +64,13 @@ def with_mark(eng, Ft, launches: list) -> list:
         int(bool(GROUND_MIRROR)), float(core_collider.BAND * eng.dx),
         eng.k.vec3(*[float(c) for c in eng.setup.domain_lo]), Ft(eng.dx), eng.rc_o, eng.rb_c, eng.rb_R, eng.rc_box,
         float(NODE_PAD * eng.dx), eng.rc_sb, eng.rc_pt])
+    if eng.rc_pt.numpy().any():   # round 66: the fields' node masses for the point contact (point_contact.py)
+        from .point_contact import mass_launch
+        mark = [mark, mass_launch(eng, Ft)]
+    else:
+        mark = [mark]
     at = len(launches) - 1 - int(eng.flow_touch_on or eng.gap_touch_on)
-    return launches[:at] + [mark] + launches[at:]
+    return launches[:at] + mark + launches[at:]
 
 
 def collider_launches(eng, Ft, g2p) -> list:

@@ -8,7 +8,9 @@ and where the point approaches it adds the point to the slot's normal system (``
 ``rc_solve`` mode 0; ``pc_layer`` the approaching points' tangential system; ``rc_solve`` mode 1; ``pc_fsum`` each
 pair's normal and stuck tangential impulse into ``pc_pacc`` (round 65's ``NP`` layout); ``rc_coulomb``; ``pc_apply``
 each approaching point's change (its velocity, and ``dt`` times it in its position) and the reaction to its slot's
-body's projection sums (``acc_p``, ``acc_l``, float64 atomics), read by this substep's rigid projection.
+body's projection sums (``acc_p``, ``acc_l``, float64 atomics), read by this substep's rigid projection; ``pc_node`` the
+nodes' velocities take the points' changes, divided by each field's node mass ``pc_m`` (kept by ``pc_mass`` after
+``rc_mark``, before the grid update and the fields' clear clear ``grid_mv`` and ``grid_sv``: round 66 pcfix).
 
 The lattices of all slots lie in one array (``pc_phi`` float32 distance, ``pc_grad`` its gradient), slot ``s`` at
 ``pc_dim[4 s + 3]`` with ``pc_dim[4 s: 4 s + 3]`` voxels, origin ``pc_org[s]``, spacing ``pc_h[s]``.
@@ -254,24 +256,45 @@ def build_point_contact(Ft):
                 wp.atomic_add(acc_l, rb, wp.cross(centre[rb] + r, J))   # the arm from the moved centre
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def pc_node(pc_g: wp.array(dtype=vec3d), grid_dv: wp.array(dtype=vec3), grid_mv: wp.array(dtype=vec4),
-                grid_sv: wp.array(dtype=vec4)):
-        """A node's two fields' velocities take the points' momentum changes (``pc_g``, cleared here)."""
+    def pc_node(pc_g: wp.array(dtype=vec3d), grid_dv: wp.array(dtype=vec3), pc_m: wp.array(dtype=Ft), soft: int):
+        """A node's two fields' velocities take the points' momentum changes (``pc_g``, cleared here), each divided
+        by its field's node mass as P2G gave it (``pc_m``, kept by ``pc_mass`` before the grid update clears
+        ``grid_mv`` and the fields' clear ``grid_sv``). ``soft`` 0: a broken variant, the change dropped."""
         node = wp.tid()
-        n = grid_mv.shape[0]
+        n = pc_m.shape[0] / 2
         for f in range(2):
             g = pc_g[f * n + node]
             if g[0] != wp.float64(0.0) or g[1] != wp.float64(0.0) or g[2] != wp.float64(0.0):
-                m = grid_sv[node][3]
-                if f == 1:
-                    m = grid_mv[node][3] - m
-                if m > Ft(0.0):
+                m = pc_m[f * n + node]
+                if m > Ft(0.0) and soft != 0:
                     grid_dv[f * n + node] = grid_dv[f * n + node] + vec3(Ft(g[0] / wp.float64(m)),
                                                                          Ft(g[1] / wp.float64(m)),
                                                                          Ft(g[2] / wp.float64(m)))
                 pc_g[f * n + node] = vec3d(wp.float64(0.0))
 
     return pc_mark, pc_layer, pc_fsum, pc_apply, pc_node
+
+
+@functools.cache
+def build_pc_mass(Ft):
+    """``pc_mass(grid_mv, grid_sv, pc_m)``: each node's field masses (A's at ``node``, B's at ``n_nodes + node``)
+    kept after the fields' first pass (``collider_launch.with_mark``), for ``pc_node`` after the grid update."""
+    vec4 = build_types(Ft)[1]
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def pc_mass(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), pc_m: wp.array(dtype=Ft)):
+        node = wp.tid()
+        m_a = grid_sv[node][3]
+        pc_m[node] = m_a
+        pc_m[grid_mv.shape[0] + node] = grid_mv[node][3] - m_a
+
+    return pc_mass
+
+
+def mass_launch(eng, Ft):
+    """The recorded ``pc_mass`` (:func:`build_pc_mass`)."""
+    return wp.launch(build_pc_mass(Ft), dim=eng.n_grid ** 3, device=eng.device, record_cmd=True, inputs=[
+        eng.grid_mv, eng.grid_sv, eng.pc_m])
 
 
 def allocate_points(eng) -> None:
@@ -289,6 +312,7 @@ def allocate_points(eng) -> None:
     eng.pc_x = wp.zeros(eng.n_material, dtype=vec3d, device=d)
     eng.pc_v = wp.zeros(eng.n_material, dtype=vec3d, device=d)
     eng.pc_g = wp.zeros(2 * eng.n_grid ** 3, dtype=vec3d, device=d)
+    eng.pc_m = wp.zeros(2 * eng.n_grid ** 3, dtype=eng.p_mass.dtype, device=d)
     eng.pc_pacc = wp.zeros(int(NP) * eng.rc_ns * eng.rc_ncol, dtype=wp.float64, device=d)
 
 
@@ -322,4 +346,4 @@ def point_launches(eng, Ft, c_solve, c_coulomb) -> list:
             rc.REACT * int(rigid_sdf.REACT_POINTS), int(rigid_sdf.FRICTION_CAP), eng.x, eng.in_a, lo,
             Ft(eng.inv_dx), eng.n_grid, eng.pc_g]),
         wp.launch(node, dim=eng.n_grid ** 3, device=d, record_cmd=True, inputs=[
-            eng.pc_g, eng.grid_dv, eng.grid_mv, eng.grid_sv])]
+            eng.pc_g, eng.grid_dv, eng.pc_m, int(rigid_sdf.SOFT_SIDE)])]
