@@ -166,7 +166,7 @@ def test_a_ball_rolls_on_an_elastic_slab(engine):
     assert abs(r["v"][1] / r["v"][0] - 1.0) < TOL, r
 
 
-# Round 66 (docs/rigid.md "Round 66: a ball rolls on a soft body"): the rigid collider's contact by the soft points
+# Round 66 (docs/rigid.md "Round 66: the point contact on a ball"): the rigid collider's contact by the soft points
 # against the rigid body's shape (gasp_core.mpm.rigid_sdf.POINT_CONTACT, off by default; warp_mpm only). The two
 # checks above with it on; the rows that miss 5 % are strict xfails with their figures.
 POINT_MISSES = {   # round 66 pcfix: measured with the soft side's change kept (the figures first merged dropped it)

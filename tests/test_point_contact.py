@@ -1,4 +1,4 @@
-"""Round 66 (issue 67 items 2 and 4, ``docs/rigid.md`` "Round 66: a ball rolls on a soft body"): the rigid
+"""Round 66 (issue 67 items 2 and 4, ``docs/rigid.md`` "Round 66: the point contact on a ball"): the rigid
 collider's contact of the soft points against the rigid body's shape (``gasp_core.mpm.rigid_sdf``, switch
 ``POINT_CONTACT``, off by default; warp_mpm's ``point_contact.py``).
 

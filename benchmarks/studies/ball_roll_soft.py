@@ -17,7 +17,7 @@ Round 66: ``--points 1`` takes the rigid collider's contact by the soft points a
 (``gasp_core.mpm.rigid_sdf.POINT_CONTACT``; warp_mpm), ``--set NAME=VALUE`` a constant of ``rigid_sdf`` (a broken
 variant: ``REACT_POINTS=0``, ``BIAS=0``, ``FRICTION_CAP=0``).
 
-Figures: ``docs/rigid.md`` ("Round 65: a ball rolling on a soft slab", "Round 66: a ball rolls on a soft body").
+Figures: ``docs/rigid.md`` ("Round 65: a ball rolling on a soft slab", "Round 66: the point contact on a ball").
 """
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Round 66 (issue 67 items 2 and 4, ``docs/rigid.md`` "Round 66: a ball rolls on a soft body"): the rigid collider's
+"""Round 66 (issue 67 items 2 and 4, ``docs/rigid.md`` "Round 66: the point contact on a ball"): the rigid collider's
 contact of the soft body's *points* against the rigid body's *shape*, instead of round 63's node band.
 
 Why (round 65, measured): the band takes the soft field's normal at every band node up to 1.4 cells from the
@@ -24,7 +24,7 @@ are (:func:`gasp_core.mpm.rigid_collider.collide` with the points for the nodes:
 tangential one, Coulomb's cap per pair with ``combine_friction``'s ``mu``); each point's change of momentum goes to
 its field's nodes by its weights (so G2P gives it, and its gradient to ``F``), the body takes the opposite into its
 projection sums. Only round bodies (:func:`round_body`) take it; bodies with faces keep round 63's node band.
-Measured and the variants tried: ``docs/rigid.md`` "Round 66: a ball rolls on a soft body".
+Measured and the variants tried: ``docs/rigid.md`` "Round 66: the point contact on a ball".
 """
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """Round 66: the rigid collider's contact of the soft points against a round rigid body's shape in Taichi
-(``gasp_core.mpm.rigid_sdf``, switch ``POINT_CONTACT``; ``docs/rigid.md`` "Round 66: a ball rolls on a soft body"),
+(``gasp_core.mpm.rigid_sdf``, switch ``POINT_CONTACT``; ``docs/rigid.md`` "Round 66: the point contact on a ball"),
 the steps of warp_mpm's ``point_contact.py``: after the band's pass (``RigidCollider.collider_pass``), before G2P,
 ``pc_mark`` (a point each: its G2P velocity, its position after the substep, the least distance to a round slot's
 body below ``SKIN`` cells, the approaching points into the slot's normal system), ``collider_solve(0)``, ``pc_layer``

@@ -1,5 +1,5 @@
 """Round 66: the rigid collider's contact of the soft points against the rigid body's shape
-(``gasp_core.mpm.rigid_sdf``, switch ``POINT_CONTACT``; ``docs/rigid.md`` "Round 66: a ball rolls on a soft body").
+(``gasp_core.mpm.rigid_sdf``, switch ``POINT_CONTACT``; ``docs/rigid.md`` "Round 66: the point contact on a ball").
 
 After G2P, one thread a material point (every kernel here but round 63's ``rc_solve`` / ``rc_coulomb``, reused one
 thread a slot / pair): ``pc_mark`` finds the slot whose body's signed distance (each slot's lattice, read
