@@ -25,12 +25,22 @@ class RigidFriction:
     def set_support(self, data) -> None:
         """The bodies' support tables (``gasp_core.mpm.rigid_pairs.support_data``: directions, supports, curvature
         tensors, bands, rows per body ``nd``) as fields ``sup_*``; None: no table for any body (every band 0: every
-        contact a face's)."""
+        contact a face's), zero fields allocated once and nothing uploaded (round 66, docs/reliability.md: the empty
+        tables' eight ``from_numpy`` calls, each a Taichi kernel turned into IR, cost about 0.4 s of every engine
+        built; with every band 0 no table row is read: ``body_row`` loops ``sup_nd`` = 0 times, ``flat_at`` reads
+        ``sup_delta`` alone and returns 1, and ``roll_point`` runs only where the flatness is under 1)."""
         import numpy as np
         if data is None:
-            nb = max(int(self.n_bodies), 1)
-            data = (np.zeros((nb, 3)), np.ones(nb), np.zeros((nb, 3, 3)), np.zeros(nb), 0)
+            if not getattr(self, "sup_empty", False):
+                nb = max(int(self.n_bodies), 1)
+                self.sup_nd, self.sup_empty = 0, True
+                self.sup_dirs = ti.Vector.field(3, ti.f64, shape=nb)
+                self.sup_h = ti.field(ti.f64, shape=nb)
+                self.sup_curv = ti.Matrix.field(3, 3, ti.f64, shape=nb)
+                self.sup_delta = ti.field(ti.f64, shape=nb)
+            return
         dirs, h, curv, delta, self.sup_nd = data
+        self.sup_empty = False
         self.sup_dirs = ti.Vector.field(3, ti.f64, shape=len(h))
         self.sup_h = ti.field(ti.f64, shape=len(h))
         self.sup_curv = ti.Matrix.field(3, 3, ti.f64, shape=len(h))
