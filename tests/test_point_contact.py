@@ -23,6 +23,7 @@ contact's dashpot part).
 """
 from __future__ import annotations
 
+import functools
 import sys
 from pathlib import Path
 
@@ -55,13 +56,23 @@ def test_a_blocks_face_is_a_quarter_cell_beyond_its_outer_points():
         assert abs(phi2 - 0.005 - phi) < (0.05 if xy == [0.0, 0.0] else 0.1) * 0.005, (phi, phi2)
 
 
+@functools.lru_cache(maxsize=1)
+def _ball_sdf(R: float = 0.03) -> dict:
+    """A lattice ball's shape (radius ``R`` m, points at ``DX / 2``), built once for the tests that read it."""
+    x, _ = sphere_points([0, 0, 0], R, DX / 2)
+    return rigid_sdf.body_sdf(x, DX)
+
+
+def _directions(seed: int, n: int) -> np.ndarray:
+    """``n`` random unit vectors (n, 3)."""
+    d = np.random.default_rng(seed).normal(size=(n, 3))
+    return d / np.linalg.norm(d, axis=1)[:, None]
+
+
 def test_a_lattice_balls_surface_and_normals():
     R = 0.03
-    x, _ = sphere_points([0, 0, 0], R, DX / 2)
-    sdf = rigid_sdf.body_sdf(x, DX)
-    rng = np.random.default_rng(0)
-    d = rng.normal(size=(60, 3))
-    d /= np.linalg.norm(d, axis=1)[:, None]
+    sdf = _ball_sdf(R)
+    d = _directions(0, 60)
     radii, angles = [], []
     for u in d:
         lo, hi = 0.0, R + DX
@@ -96,11 +107,8 @@ def test_the_point_contact_stops_an_approach_and_the_body_takes_the_reaction():
 
 def test_a_frictionless_contact_on_a_ball_turns_it_little():
     R = 0.03
-    x, _ = sphere_points([0, 0, 0], R, DX / 2)
-    sdf = rigid_sdf.body_sdf(x, DX)
-    rng = np.random.default_rng(1)
-    d = rng.normal(size=(20, 3))
-    d /= np.linalg.norm(d, axis=1)[:, None]
+    sdf = _ball_sdf(R)
+    d = _directions(1, 20)
     xs = d * (R - 0.001)
     vs = -d * 0.2
     dv, J, L = rigid_sdf.point_contact(0.1, np.eye(3) * 4e-5, np.zeros(3), np.zeros(3), np.zeros(3), np.eye(3),
