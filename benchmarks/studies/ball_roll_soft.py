@@ -29,7 +29,7 @@ SIDE = 0.48
 
 
 def roll_setup(n_grid: int, R: float = 0.03, v0: float = 0.5, mu: float = 0.5, slab: str = "elastic",
-               spin: float = 1.0, block: bool = False):
+               spin: float = 1.0, block: bool = False, seat: bool = False):
     """The scene of the module notes (body 0 the ball, body 1 the slab); ``spin`` the given ``w R / v0`` (1: rolling,
     0: thrown sliding); ``block``: a third body, a rigid 4 x 4 x 3 cm block resting on the slab's far end (round
     65: three bodies take the many-body solve, ``gasp_core.mpm.rigid_pairs``)."""
@@ -38,6 +38,9 @@ def roll_setup(n_grid: int, R: float = 0.03, v0: float = 0.5, mu: float = 0.5, s
     dx = SIDE / n_grid
     c0 = np.array([-0.08, 0.0, 0.03 + R])
     xb, pvb = sphere_points(c0, R, dx / 2)
+    if seat:   # round 67: the ball's contact surface (its shape's skin) on the slab's top points, not its points
+        c0[2] -= seat_drop(xb - c0, R, dx)
+        xb, pvb = sphere_points(c0, R, dx / 2)
     xs, pvs = box_points([-0.12, -0.08, 0.0], [0.20, 0.08, 0.03], dx / 2)
     w = np.array([0.0, spin * v0 / R, 0.0])
     parts = [xb, xs] + ([box_points([0.12, -0.02, 0.03], [0.16, 0.02, 0.06], dx / 2)[0]] if block else [])
@@ -58,6 +61,18 @@ def roll_setup(n_grid: int, R: float = 0.03, v0: float = 0.5, mu: float = 0.5, s
     return s
 
 
+def seat_drop(X0: np.ndarray, R: float, dx: float) -> float:
+    """Round 67: how far (m) the ball given by its points ``X0`` (about its centre) falls at the start before its
+    point contact's skin (``rigid_sdf.SKIN`` cells beyond its shape, ``rigid_sdf.body_sdf``) meets the slab's top
+    points (half a spacing, ``dx / 4``, under the slab's top; the ball set ``R`` above it)."""
+    from gasp_core.mpm.rigid_sdf import SKIN, body_sdf, sdf_read
+    sdf = body_sdf(X0, dx)
+    zs = np.linspace(X0[:, 2].min() - dx, X0[:, 2].min(), 401)
+    ph = np.array([sdf_read(sdf, np.array([0.0, 0.0, z]))[0] for z in zs])
+    z_skin = float(zs[np.argmin(np.abs(ph - SKIN * dx))])
+    return R + z_skin + dx / 4
+
+
 def ball_state(X: np.ndarray, V: np.ndarray, R: float) -> tuple[np.ndarray, float, float]:
     """The ball's centre (3,) m, its speed along x (m/s) and its spin about y times ``R`` (m/s) from its points
     (equal masses)."""
@@ -69,12 +84,13 @@ def ball_state(X: np.ndarray, V: np.ndarray, R: float) -> tuple[np.ndarray, floa
 
 
 def measure_roll(engine: str, n_grid: int, R: float = 0.03, v0: float = 0.5, mu: float = 0.5,
-                 slab: str = "elastic", T: float = 0.2, spin: float = 1.0, block: bool = False) -> dict:
+                 slab: str = "elastic", T: float = 0.2, spin: float = 1.0, block: bool = False,
+                 seat: bool = False) -> dict:
     """``{"v": (first frame, last), "spin": (first, last) (w R, m/s), "rise": mm}`` of :func:`roll_setup` run for
     ``T`` s on ``engine``."""
     from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import get_engine
-    s = roll_setup(n_grid, R, v0, mu, slab, spin, block)
+    s = roll_setup(n_grid, R, v0, mu, slab, spin, block, seat)
     nb = int(np.sum(np.asarray(s.body_id) == 0))
     e = build_engine(get_engine(engine), s)
     rows = []
@@ -95,6 +111,8 @@ def main() -> None:
     ap.add_argument("--T", type=float, default=0.2)
     ap.add_argument("--spin", type=float, default=1.0, help="the given w R / v0 (0: thrown sliding)")
     ap.add_argument("--block", action="store_true", help="a third body: a rigid block on the slab's far end")
+    ap.add_argument("--seat", action="store_true", help="round 67: the ball set with its contact's skin on the "
+                    "slab's top points (no drop at the start; rigid_sdf's shape)")
     ap.add_argument("--points", type=int, default=None, help="round 66: rigid_sdf.POINT_CONTACT (1 on, 0 off)")
     ap.add_argument("--set", nargs="*", default=[], help="NAME=VALUE on gasp_core.mpm.rigid_sdf (broken variants)")
     a = ap.parse_args()
@@ -110,7 +128,7 @@ def main() -> None:
         for R in a.radius:
             for slab in a.slab:
                 for mu in a.mu:
-                    r = measure_roll(a.engine, n, R, 0.5, mu, slab, a.T, a.spin, a.block)
+                    r = measure_roll(a.engine, n, R, 0.5, mu, slab, a.T, a.spin, a.block, a.seat)
                     print(f"| {a.engine} | {n} | {100 * R:g} | {slab} | {mu:g} | {r['v'][0]:.3f} -> {r['v'][1]:.3f} "
                           f"| {r['spin'][0]:.3f} -> {r['spin'][1]:.3f} | {r['rise']:+.2f} |", flush=True)
 

@@ -104,8 +104,13 @@ def main() -> None:
     ap.add_argument("--n-grid", type=int, default=32)
     ap.add_argument("--rho-ball", type=float, default=1000.0)
     ap.add_argument("--v0", type=float, default=0.5, help="ball_beside: the ball's speed (m/s)")
+    ap.add_argument("--set", nargs="*", default=[], help="NAME=VALUE on gasp_core.mpm.rigid_sdf (round 67: "
+                    "GRID_PASSES=4, the grid's constraint; broken variants)")
     a = ap.parse_args()
     from gasp_core.mpm import rigid_sdf
+    for kv in a.set:
+        k, val = kv.split("=")
+        setattr(rigid_sdf, k, type(getattr(rigid_sdf, k))(float(val)))
     for case in a.case:
         for p in a.points:
             rigid_sdf.POINT_CONTACT = bool(p)

@@ -64,6 +64,14 @@ FRICTION_CAP = 1
 #: it the contact is a dashpot: a ball at rest on jelly sank 14 mm in 0.25 s at a steady 3 cm/s).
 BIAS = 0.5
 REACT_POINTS = 1
+#: Round 67: the contact as a constraint of the grid velocities (``docs/rigid.md`` "Round 67"): this many Jacobi
+#: passes of gather (each touching point's velocity from its nodes), residual (its approach left) and scatter (its
+#: impulse's step to its nodes, the opposite to the body) per substep; 0: round 66's contact per point (the default:
+#: the grid's constraint holds a soft body on a ball but rolls worse, ``docs/rigid.md``).
+GRID_PASSES = 0
+#: Round 67: each soft point's own stiffness in the contact, ``k = STIFFNESS E s`` (``s = dx / 2`` its spacing, ``E``
+#: its body's Young's modulus: the sub-grid compliance of its cube of material); 0: a hard contact.
+STIFFNESS = 0.0
 #: A broken variant: SOFT_SIDE 0 drops the soft points' change (the body alone takes the contact; the bug merged
 #: first in round 66: the nodes' masses read after the grid update had cleared them). 1: each field's node mass kept
 #: before the clear (``pc_m``).

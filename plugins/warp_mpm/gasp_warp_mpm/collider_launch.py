@@ -105,8 +105,13 @@ def _collider_launches(eng, Ft, g2p) -> list:
     pairs = [eng.rc_sb, eng.rc_cols, eng.rc_ncol, eng.rc_pacc]   # round 65: Coulomb's per pair (collider_pair.py)
     points = []
     if eng.rc_pt.numpy().any():   # round 66: the round bodies' contact by the soft points (point_contact.py)
-        from .point_contact import point_launches
-        points = point_launches(eng, Ft, c_solve, c_coulomb)
+        from gasp_core.mpm.rigid_sdf import GRID_PASSES
+        if GRID_PASSES > 0:   # round 67: the contact as a constraint of the grid velocities (point_grid.py)
+            from .point_grid import grid_launches
+            points = grid_launches(eng, Ft, GRID_PASSES)
+        else:
+            from .point_contact import point_launches
+            points = point_launches(eng, Ft, c_solve, c_coulomb)
     return out + [
         wp.launch(c_fsum, dim=n, device=d, record_cmd=True, inputs=[eng.grid_v, eng.grid_dv, *geo, *pairs]),
         wp.launch(c_coulomb, dim=ns * eng.rc_ncol, device=d, record_cmd=True, inputs=[
