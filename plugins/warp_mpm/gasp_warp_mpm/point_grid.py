@@ -37,7 +37,8 @@ NS = wp.constant(32)
 
 @functools.cache
 def build_point_grid(Ft):
-    """``(pg_body, pg_mark, pg_pre, pg_pass, pg_node)`` for the scalar type ``Ft``."""
+    """``(pg_body, pg_mark, pg_pre, pg_pass, pg_node)`` for the scalar type ``Ft``. It is long because the kernels
+    and their helpers are closures of the scalar type (``rigid_collider.build_collider``'s reason)."""
     vec3 = build_types(Ft)[0]
     in_grid, weights = build_stencil(Ft)
     field_offset_base, gather = build_field_reads(Ft)[0], build_gather(Ft)
