@@ -158,7 +158,8 @@ def _rests(drop, late) -> bool:
 
 
 @SLOW
-@pytest.mark.parametrize("engine,consts", [("warp_mpm", {}), ("taichi_mpm", {}), ("warp_mpm", {"GRID_PASSES": 4})])
+@pytest.mark.parametrize("engine,consts", [("warp_mpm", {}), ("taichi_mpm", {}), ("warp_mpm", {"GRID_PASSES": 4}),
+                                           ("taichi_mpm", {"GRID_PASSES": 4})])
 def test_a_ball_rests_on_jelly_by_the_point_contact(engine, consts):
     """Round 67's grid constraint (``GRID_PASSES`` 4): drop 3.881 mm, late 0.036 mm (with ``BIAS`` 0 too: 4.035,
     0.159; no dashpot left to sink by)."""
@@ -169,7 +170,8 @@ def test_a_ball_rests_on_jelly_by_the_point_contact(engine, consts):
 @SLOW
 @pytest.mark.parametrize("engine,consts", [("warp_mpm", {"BIAS": 0.0}), ("warp_mpm", {"REACT_POINTS": 0}),
                                            ("taichi_mpm", {"BIAS": 0.0}),
-                                           ("warp_mpm", {"GRID_PASSES": 4, "REACT_POINTS": 0})])
+                                           ("warp_mpm", {"GRID_PASSES": 4, "REACT_POINTS": 0}),
+                                           ("taichi_mpm", {"GRID_PASSES": 4, "REACT_POINTS": 0})])
 def test_the_rest_check_catches_broken_point_contacts(engine, consts):
     drop, late = _rest(engine, **consts)
     assert not _rests(drop, late), (consts, drop, late)
@@ -180,11 +182,11 @@ def test_the_rest_check_catches_broken_point_contacts(engine, consts):
 # warp_mpm, n_grid 32, jelly E 1e5). The band (the switch off) holds them; the point contact pushes the cube (pcfix)
 # but lets a soft body creep through a ball under it (strict xfails: the next session sees them pass once it holds).
 
-def _round_scene(case, points, T, **consts):
+def _round_scene(case, points, T, engine="warp_mpm", **consts):
     """``(setup, positions, velocities)`` of ``soft_on_round.round_setup(case)`` run ``T`` s on warp_mpm with
     ``POINT_CONTACT`` ``points`` (and ``consts`` on ``rigid_sdf``), positions at 0.3 s and at ``T`` (the rest scenes:
     ``T`` 1.0 s)."""
-    pytest.importorskip("gasp_warp_mpm")
+    pytest.importorskip(f"gasp_{engine}")
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks" / "studies"))
     from soft_on_round import round_setup
     from gasp_core.seam.build import build_engine
@@ -195,7 +197,7 @@ def _round_scene(case, points, T, **consts):
         setattr(rigid_sdf, k, v)
     try:
         s = round_setup(case)
-        e = build_engine(get_engine("warp_mpm"), s)
+        e = build_engine(get_engine(engine), s)
         xs = []
         for f in range(round(T / s.frame_dt)):
             e.step_frame()
@@ -210,10 +212,10 @@ def _round_scene(case, points, T, **consts):
     return s, xs, v
 
 
-def _settle_drift(case, points, **consts):
+def _settle_drift(case, points, engine="warp_mpm", **consts):
     """The upper body's (0) lowest point less the ball's (1) highest: its settle from the start to 0.3 s and its
     drift from 0.3 to 1.0 s (dx; ``tests/test_soft_on_rigid_rest.py``'s measure), and the setup."""
-    s, (x0, x1), _ = _round_scene(case, points, 1.0, **consts)
+    s, (x0, x1), _ = _round_scene(case, points, 1.0, engine, **consts)
     b, dx = np.asarray(s.body_id), s.dx
     gap = [x[b == 0, 2].min() - x[b == 1, 2].max() for x in (np.asarray(s.x, float), x0, x1)]
     return (gap[1] - gap[0]) / dx, (gap[2] - gap[1]) / dx, s
@@ -299,16 +301,18 @@ GRID = {"GRID_PASSES": 4}
 
 
 @SLOW
-@pytest.mark.parametrize("case,consts,holds", [
-    pytest.param("jelly_on_ball", GRID, True, id="jelly_on_ball-grid"),
-    pytest.param("jball_on_ball", GRID, True, id="jball_on_ball-grid"),
-    pytest.param("jelly_on_ball", {"GRID_PASSES": 0}, False, id="jelly_on_ball-per-point")])
-def test_the_grids_constraint_holds_a_soft_body_on_a_rigid_ball(case, consts, holds):
+@pytest.mark.parametrize("engine,case,consts,holds", [
+    pytest.param("warp_mpm", "jelly_on_ball", GRID, True, id="warp_mpm-jelly_on_ball-grid"),
+    pytest.param("warp_mpm", "jball_on_ball", GRID, True, id="warp_mpm-jball_on_ball-grid"),
+    pytest.param("taichi_mpm", "jelly_on_ball", GRID, True, id="taichi_mpm-jelly_on_ball-grid"),
+    pytest.param("warp_mpm", "jelly_on_ball", {"GRID_PASSES": 0}, False, id="warp_mpm-jelly_on_ball-per-point")])
+def test_the_grids_constraint_holds_a_soft_body_on_a_rigid_ball(engine, case, consts, holds):
     """A 6 cm jelly cube / a 3 cm jelly ball on the 4.5 cm rigid ball on the ground (n_grid 32): the drift from 0.3 to
     1.0 s within 0.1 dx, and the settle within 0.1 dx of the contact's shape's (:func:`_skin_settle`, -0.094 dx; the
     rest is the jelly's indentation over the ball's top, Hertz's 1.6 mm = 0.11 dx for the cube). Measured (warp_mpm,
     round 67): settle -0.182 / -0.115 dx, drift -0.002 / -0.001 (ball_z -0.001). The catch: round 66's contact per
-    point (``GRID_PASSES`` 0: the grid dilutes each point's change, a dashpot) settle -0.62, drift -5.26 dx."""
-    settle, drift, s = _settle_drift(case, True, **consts)
+    point (``GRID_PASSES`` 0: the grid dilutes each point's change, a dashpot) settle -0.62, drift -5.26 dx.
+    taichi_mpm's port (``gasp_taichi_mpm/point_grid.py``): the same digits."""
+    settle, drift, s = _settle_drift(case, True, engine, **consts)
     ok = abs(drift) < 0.1 and abs(settle - _skin_settle(s)) < 0.1
     assert ok == holds, (consts, settle, drift, _skin_settle(s))

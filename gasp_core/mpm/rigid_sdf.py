@@ -181,7 +181,8 @@ def point_data(setup, bodies) -> dict:
     """What an engine's point contact reads for the collider's slots (``bodies``, their rigid bodies): ``{"on":
     (n_slots,) int32 (1: a round body, :func:`round_body`), "phi": float32 (all slots' lattices, flat), "grad":
     (n, 3) float32, "origin": (n_slots, 3), "h": (n_slots,), "dims": (4 n_slots,) int32 (each slot's shape and its
-    first voxel)}``; a body with faces a one-voxel lattice (no contact). All off without :data:`POINT_CONTACT`."""
+    first voxel), "comp": (n_bodies,) float64 (round 67: each body's points' compliance, m/N, :data:`STIFFNESS`)}``;
+    a body with faces a one-voxel lattice (no contact). All off without :data:`POINT_CONTACT`."""
     from gasp_core.mpm.rigid import body_frames, rigid_mask
     bodies = np.asarray(bodies, int)
     body = np.asarray(setup.body_id)
@@ -202,6 +203,9 @@ def point_data(setup, bodies) -> dict:
         out["h"].append(sdf["h"])
         out["dims"] += [*sdf["phi"].shape, base]
         base += sdf["phi"].size
-    return {"on": out["on"], "phi": np.concatenate(out["phi"]).astype(np.float32),
+    k = float(STIFFNESS)   # round 67: each body's points' compliance 1 / (STIFFNESS E dx / 2) (0: a hard contact)
+    comp = np.asarray([0.0 if k <= 0.0 or m.model == "rigid" else 1.0 / (k * float(m.E) * 0.5 * dx)
+                       for m in setup.materials], np.float64)
+    return {"comp": comp, "on": out["on"], "phi": np.concatenate(out["phi"]).astype(np.float32),
             "grad": np.concatenate(out["grad"]).astype(np.float32), "origin": np.asarray(out["origin"], np.float64),
             "h": np.asarray(out["h"], np.float64), "dims": np.asarray(out["dims"], np.int32)}

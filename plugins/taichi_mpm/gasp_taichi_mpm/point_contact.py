@@ -11,10 +11,11 @@ import numpy as np
 import taichi as ti
 
 from .collider_pair import NA, NP
+from .point_grid import PointGrid
 
 
 @ti.data_oriented
-class PointContact:
+class PointContact(PointGrid):
     """The point contact's fields and kernels (``pc_on`` False: none)."""
 
     pc_on = False
@@ -55,6 +56,7 @@ class PointContact:
         self.pc_m = ti.field(self.real, shape=(2, ng, ng, ng))
         self.pc_soft = int(rigid_sdf.SOFT_SIDE)
         self.pc_pacc = ti.field(ti.f64, shape=NP * ns * int(self.rc_ncol))
+        self.allocate_grid(points)   # round 67: the contact as a constraint of the grid (point_grid.py)
 
     @ti.func
     def pc_sdf(self, q, s):
@@ -229,7 +231,10 @@ class PointContact:
             self.pc_g[1, I] = ti.Vector.zero(ti.f64, 3)
 
     def point_pass(self) -> None:
-        """After the band's pass, before G2P (module notes)."""
+        """After the band's pass, before G2P (module notes); round 67's grid constraint where ``GRID_PASSES``."""
+        if self.pg_on:
+            self.grid_pass()
+            return
         self.pc_mark()
         self.collider_solve(0)
         self.pc_layer()

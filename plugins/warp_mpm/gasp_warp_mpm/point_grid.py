@@ -316,10 +316,7 @@ def grid_launches(eng, Ft, passes: int) -> list:
     eng.pg_lt = wp.zeros(n, dtype=vec3d, device=d)
     eng.pg_S = wp.zeros(2 * n, dtype=wp.float64, device=d)
     eng.pg_tw = wp.zeros(2 * ng ** 3, dtype=wp.float64, device=d)
-    k = float(rigid_sdf.STIFFNESS)   # the points' stiffness k = STIFFNESS E s (s = dx / 2, their spacing)
-    comp = [0.0 if k <= 0.0 or m.model == "rigid" else 1.0 / (k * float(m.E) * 0.5 * float(eng.dx))
-            for m in eng.setup.materials]
-    eng.pg_c = wp.array(np.asarray(comp, np.float64), dtype=wp.float64, device=d)
+    eng.pg_c = wp.array(np.asarray(eng.rc_points["comp"], np.float64), dtype=wp.float64, device=d)
     body, mark, pre, step, node = build_point_grid(Ft)
     lo = eng.k.vec3(*[float(c) for c in eng.setup.domain_lo])
     dt = float(eng.dt)
