@@ -72,6 +72,8 @@ GRID_PASSES = 0
 #: Round 67: each soft point's own stiffness in the contact, ``k = STIFFNESS E s`` (``s = dx / 2`` its spacing, ``E``
 #: its body's Young's modulus: the sub-grid compliance of its cube of material); 0: a hard contact.
 STIFFNESS = 0.0
+#: Round 67 (trial): each soft point read as its patch of the soft body's surface, half-size PATCH cells (0: a point).
+PATCH = 0.0
 #: A broken variant: SOFT_SIDE 0 drops the soft points' change (the body alone takes the contact; the bug merged
 #: first in round 66: the nodes' masses read after the grid update had cleared them). 1: each field's node mass kept
 #: before the clear (``pc_m``).

@@ -33,6 +33,7 @@ class PointGrid:
         self.pg_lt = ti.Vector.field(3, ti.f64, shape=n)
         self.pg_S = ti.Vector.field(2, ti.f64, shape=n)
         self.pg_tw = ti.field(ti.f64, shape=(2, ng, ng, ng))
+        self.pg_patch = float(rigid_sdf.PATCH)
         comp = np.asarray(points["comp"], np.float64)   # the points' compliance (rigid_sdf.STIFFNESS)
         self.pg_c = ti.field(ti.f64, shape=len(comp))
         self.pg_c.from_numpy(comp)
@@ -93,13 +94,42 @@ class PointGrid:
                             best = d
                             sb = s
                             nb = (R @ g).normalized()
+                w = self.weights(fx)
+                dlt = ti.Vector.zero(ti.f64, 3)
+                f = 1 - self.in_a[self.body[p]]
+                if sb >= 0 and self.pg_patch > 0.0 and best < skin + 2.0 * self.pg_patch * ti.cast(self.dx[None],
+                                                                                                 ti.f64):
+                    # the point as its patch of the soft body's surface (warp_mpm's point_grid.py)
+                    dw = [fx - 1.5, -2.0 * (fx - 1.0), fx - 0.5]
+                    gm = ti.Vector.zero(ti.f64, 3)
+                    for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
+                        m = ti.cast(self.pc_m[f, base + ti.Vector([i, j, k])], ti.f64)
+                        gm += m * ti.cast(ti.Vector([dw[i][0] * w[j][1] * w[k][2], w[i][0] * dw[j][1] * w[k][2],
+                                                     w[i][0] * w[j][1] * dw[k][2]]), ti.f64)
+                    if gm.norm() > 0.0:
+                        mn = -gm.normalized()
+                        t1 = mn.cross(ti.Vector([1.0, 0.0, 0.0], ti.f64))
+                        if ti.abs(mn[0]) > 0.9:
+                            t1 = mn.cross(ti.Vector([0.0, 1.0, 0.0], ti.f64))
+                        t1 = t1.normalized()
+                        t2 = mn.cross(t1)
+                        rb = self.rc_bodies[sb]
+                        R = self.rb_R[rb]
+                        h = self.pg_patch * ti.cast(self.dx[None], ti.f64) * 0.5
+                        for a, c in ti.ndrange(5, 5):
+                            q = (ti.cast(a - 2, ti.f64) * t1 + ti.cast(c - 2, ti.f64) * t2) * h
+                            d, g = self.pc_sdf(R.transpose() @ (xp + q - self.rb_c[rb]), sb)
+                            if d < best and g.norm() > 0.0:
+                                best = d
+                                nb = (R @ g).normalized()
+                                dlt = q
+                self.pc_x[p] = dlt
                 if sb >= 0:
-                    w = self.weights(fx)
                     v = ti.Vector.zero(self.real, 3)
                     for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                         v += w[i][0] * w[j][1] * w[k][2] * self.node_v(p, base + ti.Vector([i, j, k]))
                     o = NS * sb
-                    r = xp - self.rb_c[self.rc_bodies[sb]]
+                    r = xp + dlt - self.rb_c[self.rc_bodies[sb]]
                     un = (ti.cast(v, ti.f64) - self.pg_v(o, r)).dot(nb)
                     gap = best - skin
                     if gap + dt * ti.min(un, 0.0) < 0.0:
@@ -111,7 +141,6 @@ class PointGrid:
                         self.pc_b[p] = bp
                         self.pg_ln[p] = 0.0
                         self.pg_lt[p] = ti.Vector.zero(ti.f64, 3)
-                        f = 1 - self.in_a[self.body[p]]
                         for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                             self.pg_tw[f, base + ti.Vector([i, j, k])] += ti.cast(w[i][0] * w[j][1] * w[k][2],
                                                                                   ti.f64)
@@ -135,7 +164,7 @@ class PointGrid:
                         g += ti.cast(w[i][0] * w[j][1] * w[k][2], ti.f64) * self.pg_tw[f, I] / m
                 o = NS * s
                 rb = self.rc_bodies[s]
-                r = ti.cast(self.x[p], ti.f64) - self.rb_c[rb]
+                r = ti.cast(self.x[p], ti.f64) + self.pc_x[p] - self.rb_c[rb]
                 lin = self.pg_sl[o + 6] / self.rb_M[rb]
                 self.pg_S[p] = ti.Vector([g + lin + r.cross(self.pc_n[p]).norm() * self.pg_sl[o + 25] * self.pg_sl[o + 7],
                                           g + lin + r.norm() * self.pg_sl[o + 25] * self.pg_sl[o + 8]])
@@ -153,7 +182,7 @@ class PointGrid:
                     v += w[i][0] * w[j][1] * w[k][2] * self.node_v(p, base + ti.Vector([i, j, k]))
                 o = NS * s
                 rb = self.rc_bodies[s]
-                xp = ti.cast(self.x[p], ti.f64)
+                xp = ti.cast(self.x[p], ti.f64) + self.pc_x[p]   # the contact point (round 67's patch)
                 r = xp - self.rb_c[rb]
                 n = self.pc_n[p]
                 u = ti.cast(v, ti.f64) - self.pg_v(o, r)

@@ -56,6 +56,39 @@ def build_point_grid(Ft):
     def slot_v(sl: wp.array(dtype=wp.float64), o: int, r: vec3d):
         return vec3d(sl[o + 10], sl[o + 11], sl[o + 12]) + wp.cross(vec3d(sl[o + 13], sl[o + 14], sl[o + 15]), r)
 
+    @wp.func
+    def w1(f: Ft, i: int):
+        r = Ft(0.5) * (Ft(1.5) - f) * (Ft(1.5) - f)
+        if i == 1:
+            r = Ft(0.75) - (f - Ft(1.0)) * (f - Ft(1.0))
+        if i == 2:
+            r = Ft(0.5) * (f - Ft(0.5)) * (f - Ft(0.5))
+        return r
+
+    @wp.func
+    def dw1(f: Ft, i: int):
+        r = -(Ft(1.5) - f)
+        if i == 1:
+            r = Ft(-2.0) * (f - Ft(1.0))
+        if i == 2:
+            r = f - Ft(0.5)
+        return r
+
+    @wp.func
+    def soft_normal(pc_m: wp.array(dtype=Ft), off: int, idx0: int, f: vec3, n_grid: int):
+        """The point's field's outward surface normal: minus its node masses' gradient at the point (0 if none)."""
+        g = vec3d(wp.float64(0.0))
+        for i in range(3):
+            for j in range(3):
+                for k in range(3):
+                    m = wp.float64(pc_m[off + idx0 + (i * n_grid + j) * n_grid + k])
+                    g = g + m * vec3d(wp.float64(dw1(f[0], i) * w1(f[1], j) * w1(f[2], k)),
+                                      wp.float64(w1(f[0], i) * dw1(f[1], j) * w1(f[2], k)),
+                                      wp.float64(w1(f[0], i) * w1(f[1], j) * dw1(f[2], k)))
+        if wp.length(g) > wp.float64(0.0):
+            g = -wp.normalize(g)
+        return g
+
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def pg_body(sl: wp.array(dtype=wp.float64), acc: wp.array(dtype=wp.float64), mass: wp.array(dtype=wp.float64),
                 inertia0: wp.array(dtype=mat33d), rot: wp.array(dtype=mat33d), bodies: wp.array(dtype=wp.int32),
@@ -98,7 +131,8 @@ def build_point_grid(Ft):
                 org: wp.array(dtype=vec3d), hs: wp.array(dtype=wp.float64), dims: wp.array(dtype=wp.int32),
                 rc_pt: wp.array(dtype=wp.int32), sl: wp.array(dtype=wp.float64), pc_s: wp.array(dtype=wp.int32),
                 pc_n: wp.array(dtype=vec3d), pc_b: wp.array(dtype=wp.float64), ln: wp.array(dtype=wp.float64),
-                lt: wp.array(dtype=vec3d), tw: wp.array(dtype=wp.float64), soft_c: wp.array(dtype=wp.float64)):
+                lt: wp.array(dtype=vec3d), tw: wp.array(dtype=wp.float64), soft_c: wp.array(dtype=wp.float64),
+                pc_m: wp.array(dtype=Ft), patch: wp.float64, pc_x: wp.array(dtype=vec3d)):
         """A soft point's slot (``pc_s``: -1 none; the slot whose body's distance at it is least) where it is within
         the skin by the substep's end at its G2P velocity (linearly: ``phi + dt u_n < SKIN dx``), its normal, its
         target ``b`` (``u_n >= b``), its impulses cleared; its weights into ``tw`` (its field's nodes) and its arm
@@ -126,10 +160,32 @@ def build_point_grid(Ft):
                         best = d
                         sb = s
                         nb = wp.normalize(R * g)
+            dlt = vec3d(wp.float64(0.0))
+            if sb >= 0 and patch > wp.float64(0.0) and best < skin + wp.float64(2.0) * patch:
+                # the point as its patch of the soft body's surface (half-size ``patch``, normal ``m``): the body's
+                # least distance over the patch (5 x 5 reads), so a lattice of points reads as a flat face
+                m = soft_normal(pc_m, off, idx0, X - vec3(b0, b1, b2), n_grid)
+                if wp.length(m) > wp.float64(0.0):
+                    t1 = wp.cross(m, vec3d(wp.float64(1.0), wp.float64(0.0), wp.float64(0.0)))
+                    if wp.abs(m[0]) > wp.float64(0.9):
+                        t1 = wp.cross(m, vec3d(wp.float64(0.0), wp.float64(1.0), wp.float64(0.0)))
+                    t1 = wp.normalize(t1)
+                    t2 = wp.cross(m, t1)
+                    rb = bodies[sb]
+                    R = rot[rb]
+                    for a in range(5):
+                        for c in range(5):
+                            q = (wp.float64(a - 2) * t1 + wp.float64(c - 2) * t2) * (patch * wp.float64(0.5))
+                            d, g = sdf_at(wp.transpose(R) * (xp + q - centre[rb]), sb, phi, grad, org, hs, dims)
+                            if d < best and wp.length(g) > wp.float64(0.0):
+                                best = d
+                                nb = wp.normalize(R * g)
+                                dlt = q
+            pc_x[p] = dlt
             if sb >= 0:
                 vg, B = gather(grid_v, grid_dv, off, W, idx0, n_grid)
                 o = NS * sb
-                r = xp - centre[bodies[sb]]
+                r = xp + dlt - centre[bodies[sb]]
                 un = wp.dot(to64(vg) - slot_v(sl, o, r), nb)
                 gap = best - skin
                 if gap + dt * wp.min(un, wp.float64(0.0)) < wp.float64(0.0):
@@ -155,7 +211,7 @@ def build_point_grid(Ft):
                body: wp.array(dtype=wp.int32), bodies: wp.array(dtype=wp.int32), centre: wp.array(dtype=vec3d),
                mass: wp.array(dtype=wp.float64), sl: wp.array(dtype=wp.float64), pc_s: wp.array(dtype=wp.int32),
                pc_n: wp.array(dtype=vec3d), tw: wp.array(dtype=wp.float64), pc_m: wp.array(dtype=Ft),
-               S: wp.array(dtype=wp.float64), grid_dv: wp.array(dtype=vec3)):
+               S: wp.array(dtype=wp.float64), grid_dv: wp.array(dtype=vec3), pc_x: wp.array(dtype=vec3d)):
         """Each touching point's row-sum bounds of the response (``S``: 2 p the normal's, 2 p + 1 the tangent's)."""
         p = wp.tid()
         s = pc_s[p]
@@ -176,7 +232,7 @@ def build_point_grid(Ft):
                         if m > wp.float64(0.0):
                             g = g + wp.float64(W[i, 0] * W[j, 1] * W[k, 2]) * tw[at] / m
             o = NS * s
-            r = to64(x[p]) - centre[bodies[s]]
+            r = to64(x[p]) + pc_x[p] - centre[bodies[s]]
             lin = sl[o + 6] / mass[bodies[s]]
             S[2 * p] = g + lin + wp.length(wp.cross(r, pc_n[p])) * sl[o + 25] * sl[o + 7]
             S[2 * p + 1] = g + lin + wp.length(r) * sl[o + 25] * sl[o + 8]
@@ -189,7 +245,8 @@ def build_point_grid(Ft):
                 ln: wp.array(dtype=wp.float64), lt: wp.array(dtype=vec3d), S: wp.array(dtype=wp.float64),
                 cols: wp.array(dtype=wp.int32), n_cols: int, mus: wp.array(dtype=wp.float64), fric: wp.float64,
                 cap: int, react: int, pc_g: wp.array(dtype=vec3d), acc_p: wp.array(dtype=vec3d),
-                acc_l: wp.array(dtype=vec3d), soft_c: wp.array(dtype=wp.float64), dt: wp.float64):
+                acc_l: wp.array(dtype=vec3d), soft_c: wp.array(dtype=wp.float64), dt: wp.float64,
+                pc_x: wp.array(dtype=vec3d)):
         """One Jacobi pass for a touching point: its velocity from its field's nodes (gather), its residual against
         the body's current velocity, its impulses' step (``lambda_n >= 0``, the tangent's capped at ``mu
         lambda_n``), the step to its nodes (``pc_g``, by its weights) and the opposite to the body (the slot's sums
@@ -207,7 +264,7 @@ def build_point_grid(Ft):
             vg, B = gather(grid_v, grid_dv, off, W, idx0, n_grid)
             o = NS * s
             rb = bodies[s]
-            r = to64(x[p]) - centre[rb]
+            r = to64(x[p]) + pc_x[p] - centre[rb]
             n = pc_n[p]
             u = to64(vg) - slot_v(sl, o, r)
             un = wp.dot(u, n)
@@ -235,7 +292,7 @@ def build_point_grid(Ft):
                     wp.atomic_add(sl, o + ax, -D[ax])
                     wp.atomic_add(sl, o + 3 + ax, L[ax])
                 wp.atomic_add(acc_p, rb, -D)
-                wp.atomic_add(acc_l, rb, wp.cross(to64(x[p]), -D))
+                wp.atomic_add(acc_l, rb, wp.cross(to64(x[p]) + pc_x[p], -D))
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def pg_node(pc_g: wp.array(dtype=vec3d), grid_dv: wp.array(dtype=vec3), pc_m: wp.array(dtype=Ft),
@@ -327,17 +384,18 @@ def grid_launches(eng, Ft, passes: int) -> list:
         wp.launch(mark, dim=n, device=d, record_cmd=True, inputs=[
             *at, eng.rb_rigid, eng.rc_bodies, ns, eng.rb_c, eng.rb_R, dt, float(rigid_sdf.SKIN * eng.dx),
             float(rigid_sdf.BIAS), eng.pc_phi, eng.pc_grad, eng.pc_org, eng.pc_h, eng.pc_dim, eng.rc_pt, eng.pg_sl,
-            eng.pc_s, eng.pc_n, eng.pc_b, eng.pg_ln, eng.pg_lt, eng.pg_tw, eng.pg_c]),
+            eng.pc_s, eng.pc_n, eng.pc_b, eng.pg_ln, eng.pg_lt, eng.pg_tw, eng.pg_c, eng.pc_m,
+            float(rigid_sdf.PATCH * eng.dx), eng.pc_x]),
         wp.launch(pre, dim=n, device=d, record_cmd=True, inputs=[
             eng.x, eng.in_a, lo, Ft(eng.inv_dx), ng, eng.body, eng.rc_bodies, eng.rb_c, eng.rb_M, eng.pg_sl,
-            eng.pc_s, eng.pc_n, eng.pg_tw, eng.pc_m, eng.pg_S, eng.grid_dv])]
+            eng.pc_s, eng.pc_n, eng.pg_tw, eng.pc_m, eng.pg_S, eng.grid_dv, eng.pc_x])]
     react = rc.REACT * int(rigid_sdf.REACT_POINTS)
     for _ in range(passes):
         out += [
             wp.launch(step, dim=n, device=d, record_cmd=True, inputs=[
                 *at, eng.rc_bodies, eng.rb_c, eng.pg_sl, eng.pc_s, eng.pc_n, eng.pc_b, eng.pg_ln, eng.pg_lt,
                 eng.pg_S, eng.rc_cols, eng.rc_ncol, eng.rc_mus, float(rc.FRICTION), int(rigid_sdf.FRICTION_CAP),
-                react, eng.pc_g, eng.acc_p, eng.acc_l, eng.pg_c, dt]),
+                react, eng.pc_g, eng.acc_p, eng.acc_l, eng.pg_c, dt, eng.pc_x]),
             wp.launch(body, dim=ns, device=d, record_cmd=True, inputs=[*bod, 0]),
             wp.launch(node, dim=ng ** 3, device=d, record_cmd=True, inputs=[
                 eng.pc_g, eng.grid_dv, eng.pc_m, eng.pg_tw, int(rigid_sdf.SOFT_SIDE)])]
