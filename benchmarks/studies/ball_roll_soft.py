@@ -29,7 +29,7 @@ SIDE = 0.48
 
 
 def roll_setup(n_grid: int, R: float = 0.03, v0: float = 0.5, mu: float = 0.5, slab: str = "elastic",
-               spin: float = 1.0, block: bool = False, seat: bool = False):
+               spin: float = 1.0, block: bool = False, seat: bool = False, E: float = 1.0e5):
     """The scene of the module notes (body 0 the ball, body 1 the slab); ``spin`` the given ``w R / v0`` (1: rolling,
     0: thrown sliding); ``block``: a third body, a rigid 4 x 4 x 3 cm block resting on the slab's far end (round
     65: three bodies take the many-body solve, ``gasp_core.mpm.rigid_pairs``)."""
@@ -50,7 +50,7 @@ def roll_setup(n_grid: int, R: float = 0.03, v0: float = 0.5, mu: float = 0.5, s
     C = np.zeros((len(x), 3, 3))
     C[:len(xb)] = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
     mats = [Material("jelly", model="rigid", E=1.0e5, nu=0.3, rho=1000.0, friction=mu),
-            Material("jelly", model=slab, E=1.0e5, nu=0.3, rho=1000.0, friction=mu)]
+            Material("jelly", model=slab, E=E, nu=0.3, rho=1000.0, friction=mu)]
     mats += mats[:1] if block else []
     lo = np.array([-0.20, -SIDE / 2, -3 * dx])
     s = SimSetup(x=x, v=v, p_vol=np.r_[np.full(len(xb), pvb), np.full(len(x) - len(xb), pvs)],
@@ -85,12 +85,12 @@ def ball_state(X: np.ndarray, V: np.ndarray, R: float) -> tuple[np.ndarray, floa
 
 def measure_roll(engine: str, n_grid: int, R: float = 0.03, v0: float = 0.5, mu: float = 0.5,
                  slab: str = "elastic", T: float = 0.2, spin: float = 1.0, block: bool = False,
-                 seat: bool = False) -> dict:
+                 seat: bool = False, E: float = 1.0e5) -> dict:
     """``{"v": (first frame, last), "spin": (first, last) (w R, m/s), "rise": mm}`` of :func:`roll_setup` run for
     ``T`` s on ``engine``."""
     from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import get_engine
-    s = roll_setup(n_grid, R, v0, mu, slab, spin, block, seat)
+    s = roll_setup(n_grid, R, v0, mu, slab, spin, block, seat, E)
     nb = int(np.sum(np.asarray(s.body_id) == 0))
     e = build_engine(get_engine(engine), s)
     rows = []
@@ -113,6 +113,7 @@ def main() -> None:
     ap.add_argument("--block", action="store_true", help="a third body: a rigid block on the slab's far end")
     ap.add_argument("--seat", action="store_true", help="round 67: the ball set with its contact's skin on the "
                     "slab's top points (no drop at the start; rigid_sdf's shape)")
+    ap.add_argument("--E", type=float, default=1.0e5, help="round 67: the elastic slab's Young's modulus (Pa)")
     ap.add_argument("--points", type=int, default=None, help="round 66: rigid_sdf.POINT_CONTACT (1 on, 0 off)")
     ap.add_argument("--set", nargs="*", default=[], help="NAME=VALUE on gasp_core.mpm.rigid_sdf (broken variants)")
     a = ap.parse_args()
@@ -128,7 +129,7 @@ def main() -> None:
         for R in a.radius:
             for slab in a.slab:
                 for mu in a.mu:
-                    r = measure_roll(a.engine, n, R, 0.5, mu, slab, a.T, a.spin, a.block, a.seat)
+                    r = measure_roll(a.engine, n, R, 0.5, mu, slab, a.T, a.spin, a.block, a.seat, a.E)
                     print(f"| {a.engine} | {n} | {100 * R:g} | {slab} | {mu:g} | {r['v'][0]:.3f} -> {r['v'][1]:.3f} "
                           f"| {r['spin'][0]:.3f} -> {r['spin'][1]:.3f} | {r['rise']:+.2f} |", flush=True)
 
