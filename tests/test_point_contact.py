@@ -20,6 +20,11 @@ point contact (round 66 pcfix: ``pc_node`` divides by each field's node mass kep
 passes the push (momentum exchanged; its catch ``SOFT_SIDE`` 0, the soft side's change dropped as first merged: the
 ball bounces off a cube that takes nothing) and is a strict xfail at rest (the jelly creeps through the ball: the
 contact's dashpot part).
+
+Round 67 (``docs/rigid.md`` "Round 67: the point contact as a constraint of the grid"; ``rigid_sdf.GRID_PASSES`` 4,
+both engines' ``point_grid.py``): the touching points' impulses solved against the grid velocities hold the soft
+body on the ball (drift -0.002 dx; the settle against the contact's geometry), push the cube (momentum kept) and
+rest the ball, each with its catch (round 66's contact per point, no reaction, the soft side dropped).
 """
 from __future__ import annotations
 

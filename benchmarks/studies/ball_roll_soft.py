@@ -17,7 +17,12 @@ Round 66: ``--points 1`` takes the rigid collider's contact by the soft points a
 (``gasp_core.mpm.rigid_sdf.POINT_CONTACT``; warp_mpm), ``--set NAME=VALUE`` a constant of ``rigid_sdf`` (a broken
 variant: ``REACT_POINTS=0``, ``BIAS=0``, ``FRICTION_CAP=0``).
 
-Figures: ``docs/rigid.md`` ("Round 65: a ball rolling on a soft slab", "Round 66: the point contact on a ball").
+Round 67: ``--set GRID_PASSES=4`` the contact as a constraint of the grid (``PATCH=0.25`` the points as patches,
+``STIFFNESS=1 BIAS=1`` their compliance), ``--seat`` the ball set with its contact's skin on the slab's top points
+(no drop at the start), ``--E`` the slab's Young's modulus.
+
+Figures: ``docs/rigid.md`` ("Round 65: a ball rolling on a soft slab", "Round 66: the point contact on a ball",
+"Round 67: the point contact as a constraint of the grid").
 """
 from __future__ import annotations
 

@@ -16,7 +16,11 @@ and the cube's at the end (m/s).
 
     python benchmarks/studies/soft_on_round.py --engine warp_mpm --points 1 0 --case jelly_on_ball
 
-Figures: ``docs/rigid.md`` ("Round 66: the point contact under a soft body (softtop)").
+Round 67: ``--set NAME=VALUE`` a constant of ``gasp_core.mpm.rigid_sdf`` (``GRID_PASSES=4``: the contact as a
+constraint of the grid; broken variants).
+
+Figures: ``docs/rigid.md`` ("Round 66: the point contact under a soft body (softtop)", "Round 67: the point contact
+as a constraint of the grid").
 """
 from __future__ import annotations
 

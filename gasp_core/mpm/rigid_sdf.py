@@ -25,6 +25,12 @@ tangential one, Coulomb's cap per pair with ``combine_friction``'s ``mu``); each
 its field's nodes by its weights (so G2P gives it, and its gradient to ``F``), the body takes the opposite into its
 projection sums. Only round bodies (:func:`round_body`) take it; bodies with faces keep round 63's node band.
 Measured and the variants tried: ``docs/rigid.md`` "Round 66: the point contact on a ball".
+
+Round 67 (:data:`GRID_PASSES` > 0): the same contact as a constraint of the grid velocities (Jacobi passes of
+gather, residual and scatter over the touching points, each step over a row-sum bound of the response), so after
+G2P a touching point does not approach (round 66's contact per point let a soft body creep through a ball under it);
+:data:`PATCH` reads each soft point as its patch of the soft body's surface, :data:`STIFFNESS` gives it a compliance.
+Measured: ``docs/rigid.md`` "Round 67: the point contact as a constraint of the grid".
 """
 from __future__ import annotations
 

@@ -29,6 +29,7 @@ from .collider_pair import NA
 from .fields import build_field_reads
 from .precision import MODULE_OPTIONS, build_types
 from .rigid_pairs import mat33d, vec3d
+from .sdf_at import build_sdf_at
 from .stencil import build_gather, build_stencil
 
 #: The floats of a slot in ``pg_sl``.
@@ -88,6 +89,29 @@ def build_point_grid(Ft):
         if wp.length(g) > wp.float64(0.0):
             g = -wp.normalize(g)
         return g
+
+    @wp.func
+    def patch_least(xr: vec3d, m: vec3d, patch: wp.float64, R: mat33d, s: int, best: wp.float64, nb: vec3d,
+                    phi: wp.array(dtype=wp.float32), grad: wp.array(dtype=wp.vec3f), org: wp.array(dtype=vec3d),
+                    hs: wp.array(dtype=wp.float64), dims: wp.array(dtype=wp.int32)):
+        """(distance, normal, offset): the point (at ``xr`` from the body's centre) as its patch of the soft body's
+        surface (half-size ``patch``, normal ``m``): the body's least distance over it (5 x 5 reads), so a lattice
+        of points reads as a flat face; ``best``, ``nb`` and no offset where the point's own is least."""
+        t1 = wp.cross(m, vec3d(wp.float64(1.0), wp.float64(0.0), wp.float64(0.0)))
+        if wp.abs(m[0]) > wp.float64(0.9):
+            t1 = wp.cross(m, vec3d(wp.float64(0.0), wp.float64(1.0), wp.float64(0.0)))
+        t1 = wp.normalize(t1)
+        t2 = wp.cross(m, t1)
+        dlt = vec3d(wp.float64(0.0))
+        for a in range(5):
+            for c in range(5):
+                q = (wp.float64(a - 2) * t1 + wp.float64(c - 2) * t2) * (patch * wp.float64(0.5))
+                d, g = sdf_at(wp.transpose(R) * (xr + q), s, phi, grad, org, hs, dims)
+                if d < best and wp.length(g) > wp.float64(0.0):
+                    best = d
+                    nb = wp.normalize(R * g)
+                    dlt = q
+        return best, nb, dlt
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def pg_body(sl: wp.array(dtype=wp.float64), acc: wp.array(dtype=wp.float64), mass: wp.array(dtype=wp.float64),
@@ -162,25 +186,11 @@ def build_point_grid(Ft):
                         nb = wp.normalize(R * g)
             dlt = vec3d(wp.float64(0.0))
             if sb >= 0 and patch > wp.float64(0.0) and best < skin + wp.float64(2.0) * patch:
-                # the point as its patch of the soft body's surface (half-size ``patch``, normal ``m``): the body's
-                # least distance over the patch (5 x 5 reads), so a lattice of points reads as a flat face
                 m = soft_normal(pc_m, off, idx0, X - vec3(b0, b1, b2), n_grid)
                 if wp.length(m) > wp.float64(0.0):
-                    t1 = wp.cross(m, vec3d(wp.float64(1.0), wp.float64(0.0), wp.float64(0.0)))
-                    if wp.abs(m[0]) > wp.float64(0.9):
-                        t1 = wp.cross(m, vec3d(wp.float64(0.0), wp.float64(1.0), wp.float64(0.0)))
-                    t1 = wp.normalize(t1)
-                    t2 = wp.cross(m, t1)
                     rb = bodies[sb]
-                    R = rot[rb]
-                    for a in range(5):
-                        for c in range(5):
-                            q = (wp.float64(a - 2) * t1 + wp.float64(c - 2) * t2) * (patch * wp.float64(0.5))
-                            d, g = sdf_at(wp.transpose(R) * (xp + q - centre[rb]), sb, phi, grad, org, hs, dims)
-                            if d < best and wp.length(g) > wp.float64(0.0):
-                                best = d
-                                nb = wp.normalize(R * g)
-                                dlt = q
+                    best, nb, dlt = patch_least(xp - centre[rb], m, patch, rot[rb], sb, best, nb, phi, grad, org, hs,
+                                                dims)
             pc_x[p] = dlt
             if sb >= 0:
                 vg, B = gather(grid_v, grid_dv, off, W, idx0, n_grid)
@@ -312,53 +322,6 @@ def build_point_grid(Ft):
             tw[at] = wp.float64(0.0)
 
     return pg_body, pg_mark, pg_pre, pg_pass, pg_node
-
-
-@functools.cache
-def build_sdf_at(Ft):
-    """``sdf_at`` (``point_contact.py``'s trilinear read of a slot's lattice), as a standalone function."""
-
-    @wp.func
-    def sdf_at(q: vec3d, s: int, phi: wp.array(dtype=wp.float32), grad: wp.array(dtype=wp.vec3f),
-               org: wp.array(dtype=vec3d), hs: wp.array(dtype=wp.float64), dims: wp.array(dtype=wp.int32)):
-        f = (q - org[s]) / hs[s]
-        nx = dims[4 * s]
-        ny = dims[4 * s + 1]
-        nz = dims[4 * s + 2]
-        base = dims[4 * s + 3]
-        i = int(wp.floor(f[0]))
-        j = int(wp.floor(f[1]))
-        k = int(wp.floor(f[2]))
-        p = wp.float64(1.0e30)
-        g = vec3d(wp.float64(0.0))
-        if i >= 0 and j >= 0 and k >= 0 and i < nx - 1 and j < ny - 1 and k < nz - 1:
-            tx = f[0] - wp.float64(i)
-            ty = f[1] - wp.float64(j)
-            tz = f[2] - wp.float64(k)
-            p = wp.float64(0.0)
-            for a in range(2):
-                for b in range(2):
-                    for c in range(2):
-                        w = wp.float64(1.0)
-                        if a == 1:
-                            w = w * tx
-                        else:
-                            w = w * (wp.float64(1.0) - tx)
-                        if b == 1:
-                            w = w * ty
-                        else:
-                            w = w * (wp.float64(1.0) - ty)
-                        if c == 1:
-                            w = w * tz
-                        else:
-                            w = w * (wp.float64(1.0) - tz)
-                        at = base + ((i + a) * ny + (j + b)) * nz + (k + c)
-                        p = p + w * wp.float64(phi[at])
-                        gg = grad[at]
-                        g = g + w * vec3d(wp.float64(gg[0]), wp.float64(gg[1]), wp.float64(gg[2]))
-        return p, g
-
-    return sdf_at
 
 
 def grid_launches(eng, Ft, passes: int) -> list:
