@@ -26,6 +26,7 @@ from .collider_pair import NA, NP
 from .fields import build_field_reads
 from .precision import MODULE_OPTIONS, build_types
 from .rigid_pairs import mat33d, vec3d
+from .sdf_at import build_sdf_at
 from .stencil import build_gather, build_stencil
 
 
@@ -36,47 +37,7 @@ def build_point_contact(Ft):
     vec3, vec4 = build_types(Ft)[:2]
     in_grid, weights = build_stencil(Ft)
     field_offset_base, gather = build_field_reads(Ft)[0], build_gather(Ft)
-
-    @wp.func
-    def sdf_at(q: vec3d, s: int, phi: wp.array(dtype=wp.float32), grad: wp.array(dtype=wp.vec3f),
-               org: wp.array(dtype=vec3d), hs: wp.array(dtype=wp.float64), dims: wp.array(dtype=wp.int32)):
-        """(phi, grad) of slot ``s``'s lattice at body-frame ``q``, trilinear; (1e30, 0) outside it."""
-        f = (q - org[s]) / hs[s]
-        nx = dims[4 * s]
-        ny = dims[4 * s + 1]
-        nz = dims[4 * s + 2]
-        base = dims[4 * s + 3]
-        i = int(wp.floor(f[0]))
-        j = int(wp.floor(f[1]))
-        k = int(wp.floor(f[2]))
-        p = wp.float64(1.0e30)
-        g = vec3d(wp.float64(0.0))
-        if i >= 0 and j >= 0 and k >= 0 and i < nx - 1 and j < ny - 1 and k < nz - 1:
-            tx = f[0] - wp.float64(i)
-            ty = f[1] - wp.float64(j)
-            tz = f[2] - wp.float64(k)
-            p = wp.float64(0.0)
-            for a in range(2):
-                for b in range(2):
-                    for c in range(2):
-                        w = wp.float64(1.0)
-                        if a == 1:
-                            w = w * tx
-                        else:
-                            w = w * (wp.float64(1.0) - tx)
-                        if b == 1:
-                            w = w * ty
-                        else:
-                            w = w * (wp.float64(1.0) - ty)
-                        if c == 1:
-                            w = w * tz
-                        else:
-                            w = w * (wp.float64(1.0) - tz)
-                        at = base + ((i + a) * ny + (j + b)) * nz + (k + c)
-                        p = p + w * wp.float64(phi[at])
-                        gg = grad[at]
-                        g = g + w * vec3d(wp.float64(gg[0]), wp.float64(gg[1]), wp.float64(gg[2]))
-        return p, g
+    sdf_at = build_sdf_at(Ft)
 
     @wp.func
     def body_v(acc: wp.array(dtype=wp.float64), at_v: int, at_w: int, r: vec3d):

@@ -1,5 +1,4 @@
-"""Round 67: a slot's lattice read (``point_grid.py``; ``point_contact.py``'s ``sdf_at`` spelt once more, outside
-its builder's closure).
+"""A slot's lattice read, shared by round 66's ``point_contact.py`` and round 67's ``point_grid.py``.
 
 This module must not use ``from __future__ import annotations`` (the warp modules' rule).
 """
