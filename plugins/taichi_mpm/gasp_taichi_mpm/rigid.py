@@ -21,7 +21,7 @@ import taichi as ti
 
 from gasp_core.mpm.contact import DAMPING
 from gasp_core.mpm.restitution import lift_off_rule
-from gasp_core.mpm.rigid import RIGID_LEVER
+from gasp_core.mpm.rigid import APIC_SPIN, RIGID_LEVER
 
 from .rigid_friction import RigidFriction
 from .rigid_lift import RigidLift
@@ -45,6 +45,9 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
         self.rb_R = ti.Matrix.field(3, 3, ti.f64, shape=max(nb, 1))
         self.rb_I0 = ti.Matrix.field(3, 3, ti.f64, shape=max(nb, 1))
         self.X0 = ti.Vector.field(3, ti.f64, shape=cap)
+        # the share of the spin the points carry in C, and so of M dx^2 / 2 in the inertia (APIC_SPIN: 0 since
+        # round 67, the body's own inertia)
+        self.rb_aff = ti.field(ti.f64, shape=())
         self.n_bodies = nb
         # the restitution's hysteresis (set_restitution): per body its e (-1: none), the approach speed of its
         # ongoing contact, this substep's (atomic max) and whether a point touched; per plane its e; the rest speed
@@ -79,6 +82,7 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
         self.rb_dmax = ti.field(ti.f64, shape=max(nb * self.n_planes, 1))
         self.rb_dsum = ti.Vector.field(4, ti.f64, shape=max(nb * self.n_planes, 1))
         self.rb_e.fill(-1.0)
+        self.rb_aff[None] = float(APIC_SPIN)
         self.rb_flat.fill(1.0)
         self.plane_e.fill(1.0)
         if self.any_rigid and self.gpu:   # the GPU schedule's slice sums of the momenta and the depths
@@ -307,7 +311,7 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
     @ti.kernel
     def rigid_update(self):
         dt = ti.cast(self.dt[None], ti.f64)
-        half = 0.5 * ti.cast(self.dx[None], ti.f64) ** 2
+        half = 0.5 * self.rb_aff[None] * ti.cast(self.dx[None], ti.f64) ** 2
         # each body its own (writes only its own rows): parallel on both schedules, the same bits
         for b in range(self.n_bodies):
             if self.rb_rigid[b] != 0 and self.rb_M[b] > 0.0:
@@ -364,9 +368,10 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
             if self.rb_rigid[b] != 0:
                 R = self.rb_R[b]
                 w = self.rb_w[b]
+                wc = self.rb_aff[None] * w   # the spin the affine parts carry (APIC_SPIN: 0 since round 67)
                 r = R @ self.X0[p]
                 self.x[p] = ti.cast(self.rb_c[b] + r, self.real)
                 self.v[p] = ti.cast(self.rb_V[b] + w.cross(r), self.real)
-                self.C[p] = ti.cast(ti.Matrix([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]], dt=ti.f64),
-                                    self.real)
+                self.C[p] = ti.cast(ti.Matrix([[0.0, -wc[2], wc[1]], [wc[2], 0.0, -wc[0]], [-wc[1], wc[0], 0.0]],
+                                              dt=ti.f64), self.real)
                 self.F[p] = ti.cast(R, self.real)

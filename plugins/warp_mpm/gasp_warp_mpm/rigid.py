@@ -232,19 +232,20 @@ def build_rigid(Ft):
     def rigid_apply(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), C: wp.array(dtype=mat33),
                     F: wp.array(dtype=mat33), body: wp.array(dtype=wp.int32), rigid: wp.array(dtype=wp.int32),
                     X0: wp.array(dtype=vec3d), centre: wp.array(dtype=vec3d), rot: wp.array(dtype=mat33d),
-                    vel: wp.array(dtype=vec3d), spin: wp.array(dtype=vec3d)):
+                    vel: wp.array(dtype=vec3d), spin: wp.array(dtype=vec3d), spin_c: wp.float64):
         p = wp.tid()
         b = body[p]
         if rigid[b] == 0:
             return
         R = rot[b]
         w = spin[b]
+        wc = spin_c * w   # the spin the affine parts carry (gasp_core.mpm.rigid.APIC_SPIN: 0 since round 67)
         r = R * X0[p]
         xn = centre[b] + r
         vn = vel[b] + wp.cross(w, r)
         x[p] = vec3(Ft(xn[0]), Ft(xn[1]), Ft(xn[2]))
         v[p] = vec3(Ft(vn[0]), Ft(vn[1]), Ft(vn[2]))
-        C[p] = mat33(Ft(0.0), Ft(-w[2]), Ft(w[1]), Ft(w[2]), Ft(0.0), Ft(-w[0]), Ft(-w[1]), Ft(w[0]), Ft(0.0))
+        C[p] = mat33(Ft(0.0), Ft(-wc[2]), Ft(wc[1]), Ft(wc[2]), Ft(0.0), Ft(-wc[0]), Ft(-wc[1]), Ft(wc[0]), Ft(0.0))
         F[p] = mat33(Ft(R[0, 0]), Ft(R[0, 1]), Ft(R[0, 2]), Ft(R[1, 0]), Ft(R[1, 1]), Ft(R[1, 2]),
                      Ft(R[2, 0]), Ft(R[2, 1]), Ft(R[2, 2]))
 
@@ -301,7 +302,9 @@ class RigidBodies:
         if not self.any_rigid:
             return []
         reduce_k, update_k, apply_k = build_rigid(Ft)
+        from gasp_core.mpm.rigid import APIC_SPIN, affine_dx
         d, dx, dt, ex = self.device, float(self.dx), float(self.dt), self._ex
+        dxa = affine_dx(dx)   # the inertia's M dxa^2 / 2 (0 since round 67: the body's own inertia)
         self.rb_was = wp.zeros(len(self.setup.materials), dtype=wp.int32, device=d)
         self.rb_c0 = wp.zeros(len(self.setup.materials), dtype=vec3d, device=d)
         self.rb_steps = wp.zeros(len(self.setup.materials), dtype=wp.int32, device=d)
@@ -311,21 +314,21 @@ class RigidBodies:
                     self.x, self.v, self.C, self.p_mass, self.body, self.rb_rigid, dx, self.acc_p, self.acc_l]),
                 wp.launch(update_k, dim=len(self.setup.materials), device=d, record_cmd=True, inputs=[
                     self.rb_rigid, self.rb_M, self.rb_I0, self.acc_p, self.acc_l, self.rb_c, self.rb_R, self.rb_V,
-                    self.rb_w, dt, dx, len(self.setup.materials), ex.rb_vin, ex.rb_vin_next, ex.rb_touch, self.rb_was,
+                    self.rb_w, dt, dxa, len(self.setup.materials), ex.rb_vin, ex.rb_vin_next, ex.rb_touch, self.rb_was,
                     self.rb_c0, ex.rb_jn, ex.rb_je, ex.rb_j, ex.rb_e, ex.v_rest, lift_off_rule(),
                     vec3d(*[float(g) for g in self.setup.gravity]), self.rb_steps, ex.rb_count, ex.rb_nlast,
                     ex.rb_twist, ex.rb_fx, ex.rb_ndepth, ex.rb_fv, ex.rb_jx, ex.rb_deep, ex.rb_flat, ex.rb_xf,
                     self.rb_V0, self.rb_jsup]),
                 wp.launch(apply_k, dim=self.n_points, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.C, self.F, self.body, self.rb_rigid, self.X0, self.rb_c, self.rb_R,
-                    self.rb_V, self.rb_w])]
+                    self.rb_V, self.rb_w, float(APIC_SPIN)])]
         self._rigid_pose = out[-1]   # rigid_apply: every point of a rigid body on its pose
         if self.pair == 1:   # two rigid bodies: their contact as one, before their points take the pose
             from gasp_core.mpm.rigid_pairs import support_data   # round 65: the bodies' support tables (rolling)
             from .rigid_support import support_arrays
             self.rb_tables = support_arrays(support_data(self.setup), d, len(self.setup.materials))
             out.insert(2, wp.launch(build_rigid_pair(Ft), dim=1, device=d, record_cmd=True, inputs=[
-                self.in_a, self.rb_M, self.rb_I0, self.rb_c, self.rb_R, self.rb_V, self.rb_w, dt, dx,
+                self.in_a, self.rb_M, self.rb_I0, self.rb_c, self.rb_R, self.rb_V, self.rb_w, dt, dxa,
                 float(self.field_mu), self.pair_acc, *self.rb_tables]))
         elif self.pair == 2:   # round 62: rigid bodies among three or more, their pairs solved together
             from .rigid_pairs import pairs_launch
@@ -341,7 +344,7 @@ class RigidBodies:
                         self.x, self.body, self.rb_rigid, self.p_contact, self.planes, self.plane_n, self.rb_dmax,
                         self.rb_dsum, ex.rb_ndepth]),
                     wp.launch(lift_k, dim=nb, device=d, record_cmd=True, inputs=[
-                        self.rb_rigid, self.rb_M, self.rb_I0, self.rb_c, self.rb_R, self.rb_V, self.rb_w, dx, nb,
+                        self.rb_rigid, self.rb_M, self.rb_I0, self.rb_c, self.rb_R, self.rb_V, self.rb_w, dxa, nb,
                         self.planes, self.plane_n, self.rb_dmax, self.rb_dsum, ex.rb_e, ex.rb_vin, ex.plane_e,
                         ex.v_rest, RIGID_SLOP * dx]),
                     out[-1]]
