@@ -193,6 +193,34 @@ def measure_slide(engine: str, s, T: float = 0.3) -> dict:
             "momentum": float((m * v).sum() / p0 - 1.0), "v": v, "turn": turn, "v0": p0 / m[0]}
 
 
+def measure_slide_rate(engine: str, s, T: float = 0.15, until: float = 0.2) -> dict:
+    """Round 67: the thrown top block's deceleration on the others (:func:`slide_setup`), what Coulomb's friction
+    sets: ``rate`` (m/s^2), the slope of a line fitted to the relative x velocity of bodies 0 and 1 (their points'
+    mass-weighted means) at the frames from the first to the last where it is above ``until`` of the throw's (the
+    sliding phase, before the slip stops); ``closed`` (m/s^2), ``mu g (1 + m0 / m_rest)``
+    (:func:`slide_closed_form`'s ``v0^2 / (2 slide)``); ``u`` (m/s per frame) the relative velocities."""
+    from gasp_core.seam.build import build_engine
+    from gasp_core.seam.plugins import get_engine
+    e = build_engine(get_engine(engine), s)
+    pm, body = np.asarray(s.p_mass, float), np.asarray(s.body_id)
+    m0, m1 = pm[body == 0], pm[body == 1]
+    v0 = float(np.asarray(s.v)[0, 0])
+    t, u = [], []
+    for k in range(round(T / s.frame_dt)):
+        e.step_frame()
+        V = e.velocities().astype(float)[:, 0]
+        t.append((k + 1) * s.frame_dt)
+        u.append(float(m0 @ V[body == 0] / m0.sum() - m1 @ V[body == 1] / m1.sum()))
+    e.close() if hasattr(e, "close") else None
+    t, u = np.array(t), np.array(u)
+    sel = u > until * v0
+    sel[: int(np.argmax(sel))] = False
+    last = int(np.flatnonzero(sel)[-1]) if sel.any() else 0
+    sel[last + 1:] = False
+    rate = -float(np.polyfit(t[sel], u[sel], 1)[0]) if sel.sum() >= 2 else float("nan")
+    return {"rate": rate, "closed": v0 ** 2 / (2.0 * slide_closed_form(s)), "u": u, "frames": int(sel.sum())}
+
+
 def measure_fall(engine: str, s, T: float = 0.1) -> dict:
     """Blocks in the air (:func:`fall_setup`): ``vz`` (m/s per body) their mean velocity along z after ``T`` and
     ``expect`` (m/s per body) ``v0_z - g T``."""

@@ -21,7 +21,8 @@ import taichi as ti
 
 from gasp_core.mpm.contact import DAMPING
 from gasp_core.mpm.restitution import lift_off_rule
-from gasp_core.mpm.rigid import APIC_SPIN, RIGID_LEVER
+from gasp_core.mpm import rigid as core_rigid
+from gasp_core.mpm.rigid import RIGID_LEVER
 
 from .rigid_friction import RigidFriction
 from .rigid_lift import RigidLift
@@ -82,7 +83,7 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
         self.rb_dmax = ti.field(ti.f64, shape=max(nb * self.n_planes, 1))
         self.rb_dsum = ti.Vector.field(4, ti.f64, shape=max(nb * self.n_planes, 1))
         self.rb_e.fill(-1.0)
-        self.rb_aff[None] = float(APIC_SPIN)
+        self.rb_aff[None] = float(core_rigid.APIC_SPIN)   # read when built (a test sets it)
         self.rb_flat.fill(1.0)
         self.plane_e.fill(1.0)
         if self.any_rigid and self.gpu:   # the GPU schedule's slice sums of the momenta and the depths

@@ -302,9 +302,9 @@ class RigidBodies:
         if not self.any_rigid:
             return []
         reduce_k, update_k, apply_k = build_rigid(Ft)
-        from gasp_core.mpm.rigid import APIC_SPIN, affine_dx
+        from gasp_core.mpm import rigid as core_rigid   # APIC_SPIN read when built (a test sets it)
         d, dx, dt, ex = self.device, float(self.dx), float(self.dt), self._ex
-        dxa = affine_dx(dx)   # the inertia's M dxa^2 / 2 (0 since round 67: the body's own inertia)
+        dxa = core_rigid.affine_dx(dx)   # the inertia's M dxa^2 / 2 (0 since round 67: the body's own inertia)
         self.rb_was = wp.zeros(len(self.setup.materials), dtype=wp.int32, device=d)
         self.rb_c0 = wp.zeros(len(self.setup.materials), dtype=vec3d, device=d)
         self.rb_steps = wp.zeros(len(self.setup.materials), dtype=wp.int32, device=d)
@@ -321,7 +321,7 @@ class RigidBodies:
                     self.rb_V0, self.rb_jsup]),
                 wp.launch(apply_k, dim=self.n_points, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.C, self.F, self.body, self.rb_rigid, self.X0, self.rb_c, self.rb_R,
-                    self.rb_V, self.rb_w, float(APIC_SPIN)])]
+                    self.rb_V, self.rb_w, float(core_rigid.APIC_SPIN)])]
         self._rigid_pose = out[-1]   # rigid_apply: every point of a rigid body on its pose
         if self.pair == 1:   # two rigid bodies: their contact as one, before their points take the pose
             from gasp_core.mpm.rigid_pairs import support_data   # round 65: the bodies' support tables (rolling)
