@@ -4,7 +4,8 @@ A body whose material has ``model = "rigid"`` (:class:`gasp_core.seam.setup.Mate
 and G2P like every body, so it couples with the others through the shared grid; after each G2P its points'
 velocities are projected onto one rigid motion that keeps the body's linear momentum and its angular momentum,
 APIC's affine part included (:func:`rigid_project`), its points are put back on the rigid pose, its ``C`` is set
-to the spin's skew matrix and its ``F`` to the rotation. Its stress is zero (its Lame parameters are set to zero,
+to :data:`APIC_SPIN` times the spin's skew matrix (0 since round 67: the body turns with its own inertia) and its
+``F`` to the rotation. Its stress is zero (its Lame parameters are set to zero,
 :func:`zero_stress`), so its wave speed sets no step: the step follows the velocity CFL and the contact's own
 stable step (:func:`step_view`, :func:`rigid_contact`).
 
