@@ -50,6 +50,7 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
         # the share of the spin the points carry in C, and so of M dx^2 / 2 in the inertia (APIC_SPIN: 0 since
         # round 67, the body's own inertia)
         self.rb_aff = ti.field(ti.f64, shape=())
+        self.rb_passes = ti.field(ti.i32, shape=())   # the rotation's midpoint passes (ROTATION_PASSES)
         self.n_bodies = nb
         # the restitution's hysteresis (set_restitution): per body its e (-1: none), the approach speed of its
         # ongoing contact, this substep's (atomic max) and whether a point touched; per plane its e; the rest speed
@@ -85,6 +86,7 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
         self.rb_dsum = ti.Vector.field(4, ti.f64, shape=max(nb * self.n_planes, 1))
         self.rb_e.fill(-1.0)
         self.rb_aff[None] = float(core_rigid.APIC_SPIN)   # read when built (a test sets it)
+        self.rb_passes[None] = int(core_rigid.ROTATION_PASSES)
         self.rb_flat.fill(1.0)
         self.plane_e.fill(1.0)
         if self.any_rigid and self.gpu:   # the GPU schedule's slice sums of the momenta and the depths
@@ -325,6 +327,9 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
                 R = self.rb_R[b]
                 Id = ti.Matrix.identity(ti.f64, 3)
                 w_pred = (R @ self.rb_I0[b] @ R.transpose() + half * M * Id).inverse() @ Lc
+                for _q in range(self.rb_passes[None]):   # round 67: the implicit midpoint (warp_mpm's rigid_update)
+                    R_h = self.rotation_of(0.5 * dt * w_pred) @ R
+                    w_pred = (R_h @ self.rb_I0[b] @ R_h.transpose() + half * M * Id).inverse() @ Lc
                 R_new = self.rotation_of(dt * w_pred) @ R
                 inertia = R_new @ self.rb_I0[b] @ R_new.transpose() + half * M * Id
                 w = inertia.inverse() @ Lc
