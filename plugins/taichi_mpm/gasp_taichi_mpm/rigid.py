@@ -327,9 +327,10 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
                 R = self.rb_R[b]
                 Id = ti.Matrix.identity(ti.f64, 3)
                 w_pred = (R @ self.rb_I0[b] @ R.transpose() + half * M * Id).inverse() @ Lc
-                for _q in range(self.rb_passes[None]):   # round 67: the implicit midpoint (warp_mpm's rigid_update)
-                    R_h = self.rotation_of(0.5 * dt * w_pred) @ R
-                    w_pred = (R_h @ self.rb_I0[b] @ R_h.transpose() + half * M * Id).inverse() @ Lc
+                for _q in range(4):   # round 67: the implicit midpoint, at most 4 passes (warp_mpm's rigid_update)
+                    if _q < self.rb_passes[None]:
+                        R_h = self.rotation_of(0.5 * dt * w_pred) @ R
+                        w_pred = (R_h @ self.rb_I0[b] @ R_h.transpose() + half * M * Id).inverse() @ Lc
                 R_new = self.rotation_of(dt * w_pred) @ R
                 inertia = R_new @ self.rb_I0[b] @ R_new.transpose() + half * M * Id
                 w = inertia.inverse() @ Lc

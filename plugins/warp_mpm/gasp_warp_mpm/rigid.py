@@ -71,9 +71,10 @@ def build_rigid_update(Ft):
             # round 67: the rotation by the implicit midpoint (the spin at exp(dt w / 2) R, ROTATION_PASSES fixed-point
             # passes): a tumbling body keeps its energy (the explicit step, the spin at R: +7.6 % in a second)
             w_pred = wp.inverse(R * inertia0[b] * wp.transpose(R) + extra) * Lc
-            for _q in range(passes):
-                R_h = rotation_of(wp.float64(0.5) * dt * w_pred) * R
-                w_pred = wp.inverse(R_h * inertia0[b] * wp.transpose(R_h) + extra) * Lc
+            for _q in range(4):   # at most 4 (a literal bound: warp_layout's rule)
+                if _q < passes:
+                    R_h = rotation_of(wp.float64(0.5) * dt * w_pred) * R
+                    w_pred = wp.inverse(R_h * inertia0[b] * wp.transpose(R_h) + extra) * Lc
             R_new = rotation_of(dt * w_pred) * R
             inertia = R_new * inertia0[b] * wp.transpose(R_new) + extra
             w = wp.inverse(inertia) * Lc
