@@ -22,14 +22,16 @@ def momenta(x, v, C, m):
     return P, L
 
 
-def test_projection_keeps_momentum_and_angular_momentum():
+@pytest.mark.parametrize("spin", [0.0, 1.0])
+def test_projection_keeps_momentum_and_angular_momentum(spin):
+    """Either share of the spin in the points' ``C`` (``APIC_SPIN``: 0 since round 67, 1 before) keeps both."""
     rng = np.random.default_rng(40)
     x = rng.uniform(-0.1, 0.1, (500, 3)) * [1.0, 0.5, 0.3]
     v = rng.normal(0.0, 1.0, (500, 3))
     C = rng.normal(0.0, 5.0, (500, 3, 3))
     m = rng.uniform(0.5, 2.0, 500)
     P0, L0 = momenta(x, v, C, m)
-    v1, C1, w = rigid_project(x, v, C, m, DX)
+    v1, C1, w = rigid_project(x, v, C, m, DX, spin)
     P1, L1 = momenta(x, v1, C1, m)
     assert np.allclose(P1, P0, rtol=1e-12, atol=1e-12)
     assert np.allclose(L1, L0, rtol=1e-10, atol=1e-12)
@@ -40,7 +42,10 @@ def test_projection_keeps_momentum_and_angular_momentum():
     assert np.abs(v1 - v).max() > 0.5
 
 
-def test_projection_keeps_a_rigid_motion():
+@pytest.mark.parametrize("spin", [0.0, 1.0])
+def test_projection_keeps_a_rigid_motion(spin):
+    """A rigid motion whose points carry ``spin [w]`` in ``C`` (as the projection leaves them) projects onto itself;
+    with the other share of ``[w]`` in ``C`` the spin comes out off by the affine parts' ``M dx^2 / 2``."""
     rng = np.random.default_rng(1)
     x = rng.uniform(-0.1, 0.1, (300, 3))
     m = np.full(300, 0.3)
@@ -48,11 +53,11 @@ def test_projection_keeps_a_rigid_motion():
     V = np.array([0.1, 0.0, -1.0])
     c = x.mean(0)
     v = V + np.cross(w, x - c)
-    v1, C1, w1 = rigid_project(x, v, np.broadcast_to(skew(w), (300, 3, 3)), m, DX)
+    v1, C1, w1 = rigid_project(x, v, np.broadcast_to(spin * skew(w), (300, 3, 3)), m, DX, spin)
     assert np.allclose(w1, w, rtol=1e-10) and np.allclose(v1, v, atol=1e-12)
-    # without the affine part's angular momentum the spin comes out smaller (what the APIC term adds)
-    _, _, w0 = rigid_project(x, v, np.zeros((300, 3, 3)), m, DX)
-    assert np.linalg.norm(w0) < 0.99 * np.linalg.norm(w)
+    assert np.allclose(C1, spin * skew(w1), atol=1e-12)
+    _, _, w0 = rigid_project(x, v, np.broadcast_to((1.0 - spin) * skew(w), (300, 3, 3)), m, DX, spin)
+    assert np.linalg.norm(w0) > 1.01 * np.linalg.norm(w) if spin == 0.0 else np.linalg.norm(w0) < 0.99 * np.linalg.norm(w)
 
 
 def ball(E=2e11, rho=7850.0, model="auto", name="jelly", lift=0.05, r=0.05, n=2000, **kw):

@@ -10,9 +10,14 @@ it): its drift from 0.3 to 1.0 s and its settle from the start to 0.3 s within `
 (``tests/test_soft_on_rigid_rest.py``'s limit). Before the rule the sandwich's jelly sank into its bottom block,
 -0.65 dx in 0.7 s at n_grid 32 (E 1e5).
 
-The thrown top block of the sandwich (``scenes_rigid3.slide_setup`` rigid / jelly / rigid, mu 0.5, as
-``tests/test_rigid_three.py`` measures it) slides within ``SLIDE_TOL`` of Coulomb's closed form (before: +4.15 % at
-n_grid 32, +6.25 % at 48).
+The thrown top block of the sandwich (``scenes_rigid3.slide_setup`` rigid / jelly / rigid, mu 0.5) takes Coulomb's
+friction while it slides: the friction impulse over the normal one within ``SLIDE_TOL`` of ``mu``
+(``scenes_rigid3.measure_slide_mu``, round 67: warp_mpm n_grid 32 and 48, taichi_mpm 32), and at n_grid 48 it slides
+within ``SLIDE_TOL`` of Coulomb's closed form (``measure_slide`` as ``tests/test_rigid_three.py``; before the rule:
++4.15 % at n_grid 32, +6.25 % at 48). Round 67 dropped the slide's length at n_grid 32 from the check: it reads
+-2.7 % there (the jelly rings under the 2-cell block, which loses its load for frames, so the closed form's steady
+``N = m g`` does not hold over the 0.1 s slide), and an engine with 5 % less friction slid +2.7 % and passed it; the
+ratio reads -0.03 % and that engine -4.8 % (``docs/rigid.md`` "Round 67: the sandwich's slide").
 
 The default tier holds the NumPy reference of the node's owner (:func:`test_the_owner_reference`); the engine runs
 are slow (``tests/slow_tier.txt``).
@@ -51,6 +56,12 @@ def _slide_error(engine: str, n_grid: int) -> float:
     return r["slide"] / r["closed"] - 1.0
 
 
+def _mu_error(engine: str, n_grid: int) -> float:
+    """The sliding block's friction over normal impulse against ``mu``, less 1 (``measure_slide_mu``)."""
+    r = S.measure_slide_mu(engine, S.slide_setup(n_grid, 0.5, models=("rigid", "elastic", "rigid")))
+    return r["mu"] / r["mu_closed"] - 1.0
+
+
 @pytest.fixture
 def rule(monkeypatch):
     """The rule on (``RIGID_COLLIDER`` and ``MULTI``), whatever the defaults."""
@@ -74,9 +85,14 @@ def test_every_interface_rests(engine, case, n_grid, E, rule):
 @pytest.mark.slow
 @pytest.mark.parametrize("engine,n_grid", [("warp_mpm", 32), ("warp_mpm", 48), ("taichi_mpm", 32)])
 def test_the_sandwich_slides_as_coulomb(engine, n_grid, rule):
+    """Coulomb's ratio while it slides (every row; measured -0.03 % at n_grid 32, +0.01 % at 48) and the slide's
+    length at n_grid 48 (+0.10 %; at 32 it reads -2.7 % and cannot fail a 5 % bias: the module notes)."""
     needs_package(f"gasp_{engine}")
-    err = _slide_error(engine, n_grid)
-    assert abs(err) < SLIDE_TOL, f"{engine} n_grid {n_grid}: the slide {100 * err:+.2f} % of Coulomb's"
+    err = _mu_error(engine, n_grid)
+    assert abs(err) < SLIDE_TOL, f"{engine} n_grid {n_grid}: friction over normal impulse {100 * err:+.2f} % of mu"
+    if n_grid >= 48:
+        err = _slide_error(engine, n_grid)
+        assert abs(err) < SLIDE_TOL, f"{engine} n_grid {n_grid}: the slide {100 * err:+.2f} % of Coulomb's"
 
 
 @pytest.mark.slow
@@ -84,8 +100,9 @@ def test_the_sandwich_slides_as_coulomb(engine, n_grid, rule):
 def test_the_checks_catch_broken_engines(engine, monkeypatch, rule):
     """The rule off for three or more bodies (``MULTI`` False: the sandwich's jelly sinks into its bottom block, -0.65
     dx), no reaction on the bodies (``REACT`` 0: the top block falls into the jelly, settle -4.8 dx), the collider
-    frictionless (``FRICTION`` 0: the thrown block slides +500 %), and the slide 5 % high or low (at n_grid 48, whose
-    figure is +0.07 %: at 32, -2.72 %, a figure 5 % high would read +2.1 % and pass) each fail a check."""
+    frictionless (``FRICTION`` 0: the thrown block slides +500 %), and its friction 5 % low or high (``FRICTION``
+    1/1.05 and 1.05: at n_grid 32 the ratio reads -4.8 % and +5.0 %, where the slide's length read +2.7 % for the
+    first and passed; at 48 the length +5.4 % and -4.8 %) each fail a check."""
     needs_package(f"gasp_{engine}")
     mod = importlib.import_module(f"gasp_{engine}.rigid_collider")
     caught = {}
@@ -97,10 +114,10 @@ def test_the_checks_catch_broken_engines(engine, monkeypatch, rule):
     monkeypatch.setattr(mod, "REACT", 1)
     monkeypatch.setattr(mod, "FRICTION", 0.0)
     caught["frictionless"] = abs(_slide_error(engine, 32)) >= SLIDE_TOL
-    monkeypatch.setattr(mod, "FRICTION", 1.0)
-    err = _slide_error(engine, 48)
-    caught["5 % high"] = abs((1.0 + err) * 1.05 - 1.0) >= SLIDE_TOL
-    caught["5 % low"] = abs((1.0 + err) * 0.95 - 1.0) >= SLIDE_TOL
+    for name, f in (("friction 5 % low", 1.0 / 1.05), ("friction 5 % high", 1.05)):
+        monkeypatch.setattr(mod, "FRICTION", f)
+        caught[f"{name}, n_grid 32 (ratio)"] = abs(_mu_error(engine, 32)) >= SLIDE_TOL
+        caught[f"{name}, n_grid 48 (length)"] = abs(_slide_error(engine, 48)) >= SLIDE_TOL
     assert all(caught.values()), caught
 
 

@@ -20,7 +20,7 @@ from gasp_core.mpm.contact import contact_dt, contact_model, flowing_bodies
 from gasp_core.mpm.fields import uses_fields
 from gasp_core.mpm.shared_fields import fields_record
 from gasp_core.mpm.grid_origin import ground_on_node
-from gasp_core.mpm.rigid import lift_setup, step_view
+from gasp_core.mpm.rigid import lift_setup, rigid_affine, step_view
 from gasp_core.mpm.points import engine_mass_stats, material_first_order, stranded_passive
 from gasp_core.mpm.substeps import CFL, MAX_SUBSTEPS, substeps_for, substeps_from_options
 from gasp_core.mpm.transfer import blend_alpha
@@ -120,8 +120,10 @@ class GridEngineBase:
     def grid_setup(setup):
         """The setup a grid engine builds from: its grid laid with the ground's plane on a node where the grid contact
         acts (:func:`gasp_core.mpm.grid_origin.ground_on_node`), then each rigid body put inside a ground or wall
-        lifted out (:func:`gasp_core.mpm.rigid.lift_setup`, issue 53). ``setup`` itself when nothing moves."""
-        return lift_setup(ground_on_node(setup))
+        lifted out (:func:`gasp_core.mpm.rigid.lift_setup`, issue 53), and the affine parts of its given spin its points
+        carry as the engines' projection does (:func:`gasp_core.mpm.rigid.rigid_affine`, round 67). ``setup`` itself
+        when nothing changes."""
+        return rigid_affine(lift_setup(ground_on_node(setup)))
 
     # ------------------------------------------------------------------ point order
     def order_points(self, setup, dx: float) -> None:

@@ -193,6 +193,38 @@ def measure_slide(engine: str, s, T: float = 0.3) -> dict:
             "momentum": float((m * v).sum() / p0 - 1.0), "v": v, "turn": turn, "v0": p0 / m[0]}
 
 
+def measure_slide_mu(engine: str, s, T: float = 0.15, until: float = 0.2) -> dict:
+    """Round 67: Coulomb's law itself on the thrown top block (:func:`slide_setup`): the friction impulse over the
+    normal one while it slides. ``mu`` = ``-m0 dVx / (m0 (dVz + g dt))`` from the throw (t = 0) to the last frame
+    before its slip on the others (their velocity from the momentum kept, ``(P - m0 Vx) / m_rest``, as
+    :func:`slide_closed_form` moves them as one) first falls under ``until`` of the throw: body 0's x and z velocities
+    (its points' mass-weighted means, a rigid block's), the normal impulse from its vertical momentum's balance. The
+    slide's length also reads the normal load's course (the jelly rings under the block at n_grid 32, the block loses
+    its load for frames, and its slip overshoots to -0.04 m/s before it sticks: ``docs/rigid.md`` "Round 67: the
+    sandwich's slide"); this ratio does not. ``mu_closed`` the pair's ``mu`` (``combine_friction``); ``frames`` the
+    frames of the phase; ``slip`` (m/s per frame)."""
+    from gasp_core.mpm.fields import body_friction, combine_friction
+    from gasp_core.seam.build import build_engine
+    from gasp_core.seam.plugins import get_engine
+    e = build_engine(get_engine(engine), s)
+    pm, body = np.asarray(s.p_mass, float), np.asarray(s.body_id)
+    m0, rest = pm[body == 0], float(pm[body != 0].sum())
+    v0 = float(np.asarray(s.v)[0, 0])
+    P = float(m0.sum()) * v0
+    V, slip = [], []
+    for _ in range(round(T / s.frame_dt)):
+        e.step_frame()
+        V.append(m0 @ e.velocities().astype(float)[body == 0] / m0.sum())
+        slip.append(V[-1][0] - (P - float(m0.sum()) * V[-1][0]) / rest)
+    e.close() if hasattr(e, "close") else None
+    V, slip = np.array(V), np.array(slip)
+    k = int(np.argmax(slip < until * v0)) - 1 if np.any(slip < until * v0) else len(slip) - 1
+    t = (k + 1) * s.frame_dt
+    mu = (v0 - V[k, 0]) / (V[k, 2] + G * t) if k >= 0 else float("nan")
+    return {"mu": float(mu), "mu_closed": combine_friction(body_friction(s.materials[0]), body_friction(s.materials[1])),
+            "frames": k + 1, "slip": slip}
+
+
 def measure_fall(engine: str, s, T: float = 0.1) -> dict:
     """Blocks in the air (:func:`fall_setup`): ``vz`` (m/s per body) their mean velocity along z after ``T`` and
     ``expect`` (m/s per body) ``v0_z - g T``."""

@@ -8,7 +8,8 @@ fixed order: the same numbers on any thread count; the CPU schedule's kernel, in
 :mod:`gasp_taichi_mpm.schedule.ordered`; the GPU schedule's :meth:`Rigid.rigid_reduce_gpu` sums slices by a fixed
 tree); :meth:`Rigid.rigid_update` turns them into the body's velocity and spin and advances its centre and rotation;
 :meth:`Rigid.rigid_apply` puts every point of the body (its passive points too) on the rigid pose ``c + R X0`` with
-the rigid velocity, ``C`` the spin's skew matrix and ``F = R``; with the particle contact's planes ``rigid_depth``
+the rigid velocity, ``C`` the spin's skew matrix times ``APIC_SPIN`` (0 since round 67: the body's own inertia,
+``gasp_core.mpm.rigid.APIC_SPIN``) and ``F = R``; with the particle contact's planes ``rigid_depth``
 and :meth:`Rigid.rigid_lift` then move a resting body deeper than the slop out without speed
 (``gasp_core.mpm.rigid_friction.settle_projection``, Bullet's split impulse; issue 53) and :meth:`Rigid.rigid_apply`
 runs again.
@@ -21,6 +22,7 @@ import taichi as ti
 
 from gasp_core.mpm.contact import DAMPING
 from gasp_core.mpm.restitution import lift_off_rule
+from gasp_core.mpm import rigid as core_rigid
 from gasp_core.mpm.rigid import RIGID_LEVER
 
 from .rigid_friction import RigidFriction
@@ -45,6 +47,10 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
         self.rb_R = ti.Matrix.field(3, 3, ti.f64, shape=max(nb, 1))
         self.rb_I0 = ti.Matrix.field(3, 3, ti.f64, shape=max(nb, 1))
         self.X0 = ti.Vector.field(3, ti.f64, shape=cap)
+        # the share of the spin the points carry in C, and so of M dx^2 / 2 in the inertia (APIC_SPIN: 0 since
+        # round 67, the body's own inertia)
+        self.rb_aff = ti.field(ti.f64, shape=())
+        self.rb_passes = ti.field(ti.i32, shape=())   # the rotation's midpoint passes (ROTATION_PASSES)
         self.n_bodies = nb
         # the restitution's hysteresis (set_restitution): per body its e (-1: none), the approach speed of its
         # ongoing contact, this substep's (atomic max) and whether a point touched; per plane its e; the rest speed
@@ -79,6 +85,8 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
         self.rb_dmax = ti.field(ti.f64, shape=max(nb * self.n_planes, 1))
         self.rb_dsum = ti.Vector.field(4, ti.f64, shape=max(nb * self.n_planes, 1))
         self.rb_e.fill(-1.0)
+        self.rb_aff[None] = float(core_rigid.APIC_SPIN)   # read when built (a test sets it)
+        self.rb_passes[None] = int(core_rigid.ROTATION_PASSES)
         self.rb_flat.fill(1.0)
         self.plane_e.fill(1.0)
         if self.any_rigid and self.gpu:   # the GPU schedule's slice sums of the momenta and the depths
@@ -307,7 +315,7 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
     @ti.kernel
     def rigid_update(self):
         dt = ti.cast(self.dt[None], ti.f64)
-        half = 0.5 * ti.cast(self.dx[None], ti.f64) ** 2
+        half = 0.5 * self.rb_aff[None] * ti.cast(self.dx[None], ti.f64) ** 2
         # each body its own (writes only its own rows): parallel on both schedules, the same bits
         for b in range(self.n_bodies):
             if self.rb_rigid[b] != 0 and self.rb_M[b] > 0.0:
@@ -319,6 +327,10 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
                 R = self.rb_R[b]
                 Id = ti.Matrix.identity(ti.f64, 3)
                 w_pred = (R @ self.rb_I0[b] @ R.transpose() + half * M * Id).inverse() @ Lc
+                for _q in range(4):   # round 67: the implicit midpoint, at most 4 passes (warp_mpm's rigid_update)
+                    if _q < self.rb_passes[None]:
+                        R_h = self.rotation_of(0.5 * dt * w_pred) @ R
+                        w_pred = (R_h @ self.rb_I0[b] @ R_h.transpose() + half * M * Id).inverse() @ Lc
                 R_new = self.rotation_of(dt * w_pred) @ R
                 inertia = R_new @ self.rb_I0[b] @ R_new.transpose() + half * M * Id
                 w = inertia.inverse() @ Lc
@@ -364,9 +376,10 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
             if self.rb_rigid[b] != 0:
                 R = self.rb_R[b]
                 w = self.rb_w[b]
+                wc = self.rb_aff[None] * w   # the spin the affine parts carry (APIC_SPIN: 0 since round 67)
                 r = R @ self.X0[p]
                 self.x[p] = ti.cast(self.rb_c[b] + r, self.real)
                 self.v[p] = ti.cast(self.rb_V[b] + w.cross(r), self.real)
-                self.C[p] = ti.cast(ti.Matrix([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]], dt=ti.f64),
-                                    self.real)
+                self.C[p] = ti.cast(ti.Matrix([[0.0, -wc[2], wc[1]], [wc[2], 0.0, -wc[0]], [-wc[1], wc[0], 0.0]],
+                                              dt=ti.f64), self.real)
                 self.F[p] = ti.cast(R, self.real)

@@ -301,7 +301,7 @@ class RigidCollider(ColliderPair, PointContact):
             A11 = M * eye + self.rc_get33(o + 20)
             A12 = self.rc_get33(o + 29)
             A21 = self.rc_get33(o + 38)
-            A22 = R @ self.rb_I0[rb] @ R.transpose() + 0.5 * ti.cast(self.dx[None], ti.f64) ** 2 * M * eye \
+            A22 = R @ self.rb_I0[rb] @ R.transpose() + 0.5 * self.rb_aff[None] * ti.cast(self.dx[None], ti.f64) ** 2 * M * eye \
                 + self.rc_get33(o + 47)
             b1 = self.rc_vec(o + 56)
             b2 = self.rc_vec(o + 59)

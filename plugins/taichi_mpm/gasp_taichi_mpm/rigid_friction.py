@@ -180,7 +180,7 @@ class RigidFriction:
         Coulomb's friction of that impulse at the centre (stick within ``mu P``, else slide at ``mu P``); the
         centres' advance of the substep follows the new velocities. ``pair_acc`` is cleared."""
         dt = ti.cast(self.dt[None], ti.f64)
-        half = 0.5 * ti.cast(self.dx[None], ti.f64) ** 2
+        half = 0.5 * self.rb_aff[None] * ti.cast(self.dx[None], ti.f64) ** 2   # 0 since round 67 (APIC_SPIN)
         mu = ti.cast(self.field_mu, ti.f64)
         for _ in range(1):
             a = 1

@@ -78,7 +78,8 @@ class RigidLift:
                 V = self.rb_V[b]
                 w = self.rb_w[b]
                 R = self.rb_R[b]
-                inertia = R @ self.rb_I0[b] @ R.transpose() + 0.5 * dx * dx * M * ti.Matrix.identity(ti.f64, 3)
+                inertia = R @ self.rb_I0[b] @ R.transpose() + 0.5 * self.rb_aff[None] * dx * dx * M * ti.Matrix.identity(
+                    ti.f64, 3)
                 inv = inertia.inverse()
                 shift = ti.Vector.zero(ti.f64, 3)
                 for q in range(self.n_planes):

@@ -95,7 +95,7 @@ class RigidPairs:
         ``pair_sweeps`` times with accumulated impulses, then the centres' advance of the substep follows the new
         velocities. Their ``pair_acc`` and ``pair_seen`` are cleared, and ``pair_n``."""
         dt = ti.cast(self.dt[None], ti.f64)
-        half = 0.5 * ti.cast(self.dx[None], ti.f64) ** 2
+        half = 0.5 * self.rb_aff[None] * ti.cast(self.dx[None], ti.f64) ** 2   # 0 since round 67 (APIC_SPIN)
         g = ti.cast(self.gravity[None], ti.f64)
         nb = self.n_bodies
         for _ in range(1):

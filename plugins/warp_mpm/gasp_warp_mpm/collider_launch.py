@@ -7,6 +7,7 @@ import numpy as np
 import warp as wp
 
 from gasp_core.mpm import rigid_collider as core_collider
+from gasp_core.mpm.rigid import affine_dx
 
 from . import collider_pair as cp
 from . import rigid_collider as rc
@@ -90,7 +91,7 @@ def _collider_launches(eng, Ft, g2p) -> list:
     n, d, ng, ns = eng.n_grid ** 3, eng.device, eng.n_grid, eng.rc_ns
     lo = eng.k.vec3(*[float(c) for c in eng.setup.domain_lo])
     geo = [eng.rc_m, eng.rc_n, eng.rc_o, eng.in_a, eng.rc_bodies, eng.rb_c, ng, lo, Ft(eng.dx), eng.rc_acc]
-    solve = [eng.rc_acc, eng.rb_M, eng.rb_I0, eng.rb_R, eng.rc_bodies, float(eng.dx)]
+    solve = [eng.rc_acc, eng.rb_M, eng.rb_I0, eng.rb_R, eng.rc_bodies, affine_dx(eng.dx)]   # round 67: own I
     if eng.rc_multi:   # round 64: V* from each slot body's points (a field may hold several bodies)
         out = [wp.launch(c_psum, dim=eng.n_material, device=d, record_cmd=True, inputs=[
             eng.x, eng.body, eng.p_mass, eng.grid_v, eng.grid_dv, eng.in_a, eng.rc_slot, lo, Ft(eng.inv_dx), ng,

@@ -5,7 +5,8 @@ After each G2P: ``rigid_reduce`` sums each rigid body's momentum and angular mom
 affine part included) over its points into float64 accumulators (atomic adds: on the CPU Warp runs a launch
 serially, so the order is the point order); ``rigid_update`` (one thread a body) turns them into the body's velocity
 and spin and advances its centre and rotation; ``rigid_apply`` puts every point of the body (its passive points too) on
-the rigid pose ``c + R X0`` with the rigid velocity, ``C`` the spin's skew matrix and ``F = R``. With the particle
+the rigid pose ``c + R X0`` with the rigid velocity, ``C`` the spin's skew matrix times ``APIC_SPIN`` (0 since round
+67: the body's own inertia, ``gasp_core.mpm.rigid.APIC_SPIN``) and ``F = R``. With the particle
 contact's planes, ``rigid_depth`` and ``rigid_lift`` (:func:`build_rigid_lift`) then move a resting body deeper than
 the slop out without speed (``gasp_core.mpm.rigid_friction.settle_projection``, Bullet's split impulse; issue 53) and
 ``rigid_apply`` runs again.
@@ -58,7 +59,7 @@ def build_rigid_update(Ft):
                      fx: wp.array(dtype=wp.vec4d), ndepth: wp.array(dtype=wp.int32), fv: wp.array(dtype=vec3d),
                      jx: wp.array(dtype=wp.float64), deep: wp.array(dtype=wp.float64),
                      flat: wp.array(dtype=wp.float64), xf: wp.array(dtype=vec3d), V0: wp.array(dtype=vec3d),
-                     jsup: wp.array(dtype=wp.float64)):
+                     jsup: wp.array(dtype=wp.float64), passes: int):
         b = wp.tid()   # one thread a body: each writes its own rows (dim = n_bodies)
         M = mass[b]
         if rigid[b] != 0 and M > wp.float64(0.0):
@@ -67,7 +68,13 @@ def build_rigid_update(Ft):
             Lc = acc_l[b] - wp.cross(c, P)
             R = rot[b]
             extra = wp.float64(0.5) * dx * dx * M * wp.identity(3, wp.float64)
+            # round 67: the rotation by the implicit midpoint (the spin at exp(dt w / 2) R, ROTATION_PASSES fixed-point
+            # passes): a tumbling body keeps its energy (the explicit step, the spin at R: +7.6 % in a second)
             w_pred = wp.inverse(R * inertia0[b] * wp.transpose(R) + extra) * Lc
+            for _q in range(4):   # at most 4 (a literal bound: warp_layout's rule)
+                if _q < passes:
+                    R_h = rotation_of(wp.float64(0.5) * dt * w_pred) * R
+                    w_pred = wp.inverse(R_h * inertia0[b] * wp.transpose(R_h) + extra) * Lc
             R_new = rotation_of(dt * w_pred) * R
             inertia = R_new * inertia0[b] * wp.transpose(R_new) + extra
             w = wp.inverse(inertia) * Lc
@@ -232,19 +239,20 @@ def build_rigid(Ft):
     def rigid_apply(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), C: wp.array(dtype=mat33),
                     F: wp.array(dtype=mat33), body: wp.array(dtype=wp.int32), rigid: wp.array(dtype=wp.int32),
                     X0: wp.array(dtype=vec3d), centre: wp.array(dtype=vec3d), rot: wp.array(dtype=mat33d),
-                    vel: wp.array(dtype=vec3d), spin: wp.array(dtype=vec3d)):
+                    vel: wp.array(dtype=vec3d), spin: wp.array(dtype=vec3d), spin_c: wp.float64):
         p = wp.tid()
         b = body[p]
         if rigid[b] == 0:
             return
         R = rot[b]
         w = spin[b]
+        wc = spin_c * w   # the spin the affine parts carry (gasp_core.mpm.rigid.APIC_SPIN: 0 since round 67)
         r = R * X0[p]
         xn = centre[b] + r
         vn = vel[b] + wp.cross(w, r)
         x[p] = vec3(Ft(xn[0]), Ft(xn[1]), Ft(xn[2]))
         v[p] = vec3(Ft(vn[0]), Ft(vn[1]), Ft(vn[2]))
-        C[p] = mat33(Ft(0.0), Ft(-w[2]), Ft(w[1]), Ft(w[2]), Ft(0.0), Ft(-w[0]), Ft(-w[1]), Ft(w[0]), Ft(0.0))
+        C[p] = mat33(Ft(0.0), Ft(-wc[2]), Ft(wc[1]), Ft(wc[2]), Ft(0.0), Ft(-wc[0]), Ft(-wc[1]), Ft(wc[0]), Ft(0.0))
         F[p] = mat33(Ft(R[0, 0]), Ft(R[0, 1]), Ft(R[0, 2]), Ft(R[1, 0]), Ft(R[1, 1]), Ft(R[1, 2]),
                      Ft(R[2, 0]), Ft(R[2, 1]), Ft(R[2, 2]))
 
@@ -301,7 +309,9 @@ class RigidBodies:
         if not self.any_rigid:
             return []
         reduce_k, update_k, apply_k = build_rigid(Ft)
+        from gasp_core.mpm import rigid as core_rigid   # APIC_SPIN read when built (a test sets it)
         d, dx, dt, ex = self.device, float(self.dx), float(self.dt), self._ex
+        dxa = core_rigid.affine_dx(dx)   # the inertia's M dxa^2 / 2 (0 since round 67: the body's own inertia)
         self.rb_was = wp.zeros(len(self.setup.materials), dtype=wp.int32, device=d)
         self.rb_c0 = wp.zeros(len(self.setup.materials), dtype=vec3d, device=d)
         self.rb_steps = wp.zeros(len(self.setup.materials), dtype=wp.int32, device=d)
@@ -311,21 +321,21 @@ class RigidBodies:
                     self.x, self.v, self.C, self.p_mass, self.body, self.rb_rigid, dx, self.acc_p, self.acc_l]),
                 wp.launch(update_k, dim=len(self.setup.materials), device=d, record_cmd=True, inputs=[
                     self.rb_rigid, self.rb_M, self.rb_I0, self.acc_p, self.acc_l, self.rb_c, self.rb_R, self.rb_V,
-                    self.rb_w, dt, dx, len(self.setup.materials), ex.rb_vin, ex.rb_vin_next, ex.rb_touch, self.rb_was,
+                    self.rb_w, dt, dxa, len(self.setup.materials), ex.rb_vin, ex.rb_vin_next, ex.rb_touch, self.rb_was,
                     self.rb_c0, ex.rb_jn, ex.rb_je, ex.rb_j, ex.rb_e, ex.v_rest, lift_off_rule(),
                     vec3d(*[float(g) for g in self.setup.gravity]), self.rb_steps, ex.rb_count, ex.rb_nlast,
                     ex.rb_twist, ex.rb_fx, ex.rb_ndepth, ex.rb_fv, ex.rb_jx, ex.rb_deep, ex.rb_flat, ex.rb_xf,
-                    self.rb_V0, self.rb_jsup]),
+                    self.rb_V0, self.rb_jsup, int(core_rigid.ROTATION_PASSES)]),
                 wp.launch(apply_k, dim=self.n_points, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.C, self.F, self.body, self.rb_rigid, self.X0, self.rb_c, self.rb_R,
-                    self.rb_V, self.rb_w])]
+                    self.rb_V, self.rb_w, float(core_rigid.APIC_SPIN)])]
         self._rigid_pose = out[-1]   # rigid_apply: every point of a rigid body on its pose
         if self.pair == 1:   # two rigid bodies: their contact as one, before their points take the pose
             from gasp_core.mpm.rigid_pairs import support_data   # round 65: the bodies' support tables (rolling)
             from .rigid_support import support_arrays
             self.rb_tables = support_arrays(support_data(self.setup), d, len(self.setup.materials))
             out.insert(2, wp.launch(build_rigid_pair(Ft), dim=1, device=d, record_cmd=True, inputs=[
-                self.in_a, self.rb_M, self.rb_I0, self.rb_c, self.rb_R, self.rb_V, self.rb_w, dt, dx,
+                self.in_a, self.rb_M, self.rb_I0, self.rb_c, self.rb_R, self.rb_V, self.rb_w, dt, dxa,
                 float(self.field_mu), self.pair_acc, *self.rb_tables]))
         elif self.pair == 2:   # round 62: rigid bodies among three or more, their pairs solved together
             from .rigid_pairs import pairs_launch
@@ -341,7 +351,7 @@ class RigidBodies:
                         self.x, self.body, self.rb_rigid, self.p_contact, self.planes, self.plane_n, self.rb_dmax,
                         self.rb_dsum, ex.rb_ndepth]),
                     wp.launch(lift_k, dim=nb, device=d, record_cmd=True, inputs=[
-                        self.rb_rigid, self.rb_M, self.rb_I0, self.rb_c, self.rb_R, self.rb_V, self.rb_w, dx, nb,
+                        self.rb_rigid, self.rb_M, self.rb_I0, self.rb_c, self.rb_R, self.rb_V, self.rb_w, dxa, nb,
                         self.planes, self.plane_n, self.rb_dmax, self.rb_dsum, ex.rb_e, ex.rb_vin, ex.plane_e,
                         ex.v_rest, RIGID_SLOP * dx]),
                     out[-1]]

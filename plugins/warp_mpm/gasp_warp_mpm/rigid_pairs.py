@@ -240,11 +240,12 @@ def slot_inputs(eng) -> list:
 def pairs_launch(eng, Ft):
     """The recorded launch of ``rigid_pairs`` (``eng.pair`` 2), after the rigid update, with round 65's support tables
     (``eng.rb_tables``)."""
+    from gasp_core.mpm.rigid import affine_dx   # the inertia's M dx^2 / 2: 0 since round 67
     from gasp_core.mpm.rigid_pairs import SWEEPS, support_data
     from .rigid_support import support_arrays
     eng.rb_tables = support_arrays(support_data(eng.setup), eng.device, len(eng.setup.materials))
     return wp.launch(build_rigid_pairs(Ft), dim=1, device=eng.device, record_cmd=True, inputs=[
-        eng.rb_M, eng.rb_I0, eng.rb_c, eng.rb_R, eng.rb_V, eng.rb_w, eng.pair_V0, float(eng.dt), float(eng.dx),
+        eng.rb_M, eng.rb_I0, eng.rb_c, eng.rb_R, eng.rb_V, eng.rb_w, eng.pair_V0, float(eng.dt), affine_dx(eng.dx),
         len(eng.setup.materials), eng.pair_mu, eng.pair_acc, eng.pair_lam, eng.pair_order,
         vec3d(*[float(g) for g in eng.setup.gravity]), int(SWEEPS), eng.pair_slots, eng.pair_n, eng.pair_seen,
         *eng.rb_tables, eng.pair_rows])
