@@ -53,7 +53,7 @@ class PointGrid:
             M = self.rb_M[rb]
             if init != 0:
                 R = self.rb_R[rb]
-                Ii = (R @ self.rb_I0[rb] @ R.transpose() + 0.5 * ti.cast(self.dx[None], ti.f64) ** 2 * M
+                Ii = (R @ self.rb_I0[rb] @ R.transpose() + 0.5 * self.rb_aff[None] * ti.cast(self.dx[None], ti.f64) ** 2 * M
                       * ti.Matrix.identity(ti.f64, 3)).inverse()
                 nrm = ti.cast(0.0, ti.f64)
                 for a in ti.static(range(3)):

@@ -281,13 +281,14 @@ def point_launches(eng, Ft, c_solve, c_coulomb) -> list:
     """The recorded point contact after the grid update, before G2P (module notes); ``c_solve``, ``c_coulomb``:
     round 63's kernels."""
     from gasp_core.mpm import rigid_sdf
+    from gasp_core.mpm.rigid import affine_dx
     from . import rigid_collider as rc
     allocate_points(eng)
     mark, layer, fsum, apply, node = build_point_contact(Ft)
     d, n, ns, dt = eng.device, eng.n_material, eng.rc_ns, float(eng.dt)
     lo = eng.k.vec3(*[float(c) for c in eng.setup.domain_lo])
     geo = [eng.rc_bodies, eng.rb_c, eng.rc_acc, dt, eng.pc_s, eng.pc_n]
-    solve = [eng.rc_acc, eng.rb_M, eng.rb_I0, eng.rb_R, eng.rc_bodies, float(eng.dx)]
+    solve = [eng.rc_acc, eng.rb_M, eng.rb_I0, eng.rb_R, eng.rc_bodies, affine_dx(eng.dx)]   # round 67: own I
     pairs = [eng.pc_b, eng.rc_cols, eng.rc_ncol, eng.pc_pacc]
     return [
         wp.launch(mark, dim=n, device=d, record_cmd=True, inputs=[

@@ -118,8 +118,8 @@ def build_point_grid(Ft):
                 inertia0: wp.array(dtype=mat33d), rot: wp.array(dtype=mat33d), bodies: wp.array(dtype=wp.int32),
                 dx: wp.float64, init: int):
         """One thread a slot: init 1 clears the sums and takes ``V*`` and the spin (``rc_acc`` 4-6, 62-64) and the
-        inverse inertia (round 63's ``rc_solve``'s, with APIC's ``dx^2 M / 2``); else the body's velocity from them
-        and the points' impulses so far."""
+        inverse inertia (round 63's ``rc_solve``'s: ``dx`` is ``rigid.affine_dx``, 0 since round 67's own inertia);
+        else the body's velocity from them and the points' impulses so far."""
         s = wp.tid()
         o = NS * s
         oa = NA * s
@@ -327,6 +327,7 @@ def build_point_grid(Ft):
 def grid_launches(eng, Ft, passes: int) -> list:
     """The recorded contact (module notes) after the grid update and ``V*``, before G2P: ``passes`` Jacobi passes."""
     from gasp_core.mpm import rigid_sdf
+    from gasp_core.mpm.rigid import affine_dx
     from . import rigid_collider as rc
     from .point_contact import allocate_points
     allocate_points(eng)
@@ -341,7 +342,7 @@ def grid_launches(eng, Ft, passes: int) -> list:
     lo = eng.k.vec3(*[float(c) for c in eng.setup.domain_lo])
     dt = float(eng.dt)
     at = [eng.x, eng.grid_v, eng.grid_dv, eng.in_a, lo, Ft(eng.inv_dx), ng, eng.body]
-    bod = [eng.pg_sl, eng.rc_acc, eng.rb_M, eng.rb_I0, eng.rb_R, eng.rc_bodies, float(eng.dx)]
+    bod = [eng.pg_sl, eng.rc_acc, eng.rb_M, eng.rb_I0, eng.rb_R, eng.rc_bodies, affine_dx(eng.dx)]   # own I
     out = [
         wp.launch(body, dim=ns, device=d, record_cmd=True, inputs=[*bod, 1]),
         wp.launch(mark, dim=n, device=d, record_cmd=True, inputs=[
