@@ -198,18 +198,17 @@ def test_a_ball_rolls_on_an_elastic_slab(engine):
 # Round 66 (docs/rigid.md "Round 66: the point contact on a ball"): the rigid collider's contact by the soft points
 # against the rigid body's shape (gasp_core.mpm.rigid_sdf.POINT_CONTACT, off by default; warp_mpm only). The two
 # checks above with it on; the rows that miss 5 % are strict xfails with their figures.
-POINT_MISSES = {   # round 66 pcfix: measured with the soft side's change kept (the figures first merged dropped it)
-    (32, 0.03, 0.0): "n_grid 32, R 3 cm, frictionless: v 0.500 -> 0.460 (-8.0 %), w R -2.2 %",
-    (32, 0.03, 0.5): "n_grid 32, R 3 cm, mu 0.5: v -3.8 %, w R 0.500 -> 0.454 (-9.2 %)",
-    (32, 0.045, 0.0): "n_grid 32, R 4.5 cm, frictionless: v 0.500 -> 0.421 (-15.8 %), w R +7.6 %",
-    (32, 0.045, 0.5): "n_grid 32, R 4.5 cm, mu 0.5: v 0.500 -> 0.457 (-8.6 %), w R -8.4 %",
-    (48, 0.03, 0.0): "n_grid 48, R 3 cm, frictionless: v 0.500 -> 0.448 (-10.4 %), w R +5.4 %",
-    (48, 0.03, 0.5): "n_grid 48, R 3 cm, mu 0.5: v -6.2 %, w R 0.500 -> 0.438 (-12.4 %)",
-    (48, 0.045, 0.0): "n_grid 48, R 4.5 cm, frictionless: v -9.4 %, w R 0.500 -> 0.588 (+17.6 %; the lattice ball's "
+POINT_MISSES = {   # round 67: with the body's own inertia (rollI), warp_mpm, the soft side's change kept (pcfix)
+    (32, 0.03, 0.0): "n_grid 32, R 3 cm, frictionless: v 0.500 -> 0.462 (-7.6 %), w R -3.4 %",
+    (32, 0.03, 0.5): "n_grid 32, R 3 cm, mu 0.5: v -4.6 %, w R 0.500 -> 0.450 (-10.0 %)",
+    (32, 0.045, 0.0): "n_grid 32, R 4.5 cm, frictionless: v 0.500 -> 0.421 (-15.8 %), w R +8.6 %",
+    (32, 0.045, 0.5): "n_grid 32, R 4.5 cm, mu 0.5: v 0.500 -> 0.456 (-8.8 %), w R -8.8 %",
+    (48, 0.03, 0.0): "n_grid 48, R 3 cm, frictionless: v 0.500 -> 0.448 (-10.4 %), w R +6.4 %",
+    (48, 0.03, 0.5): "n_grid 48, R 3 cm, mu 0.5: v -6.6 %, w R 0.500 -> 0.434 (-13.2 %)",
+    (48, 0.045, 0.0): "n_grid 48, R 4.5 cm, frictionless: v -9.6 %, w R 0.500 -> 0.592 (+18.4 %; the lattice ball's "
                       "facets' normals, an exact sphere's distance kept it to 0.0 % with the soft side dropped)",
 }
-# the figures of warp_mpm (n_grid 32, T 0.2 s) taichi_mpm's port is held to (v, w R at the last frame, m/s)
-POINT_FIGURES = {(32, 0.03, 0.0): (0.460, 0.489), (32, 0.045, 0.5): (0.457, 0.458)}
+POINT_FIGURES = {(32, 0.03, 0.0): (0.462, 0.483), (32, 0.045, 0.5): (0.456, 0.456)}   # round 67 (own inertia)
 
 
 def _point_roll(n_grid: int, R: float, mu: float, engine: str = "warp_mpm", block: bool = False, **consts):
@@ -275,20 +274,26 @@ def test_the_point_rolling_check_catches_broken_contacts(engine, consts):
 
 def _slides(r) -> bool:
     """Still sliding after 0.05 s (thrown at 0.5 m/s with no spin, mu 0.1): Coulomb's friction spins the ball up at
-    ``mu g`` over ``k`` only (with the engines' inertia: ``w R`` 0.084 against ``v`` 0.455 m/s, a ratio of 0.18; it
-    rolls at 0.146 s); measured with the point contact 0.101 against 0.428 (0.24: the first bounce's load above the
-    weight). The check: the ratio under 1/2 and the spin up (over 0.05 m/s): a contact that rolls at once fails it."""
+    ``mu g`` over ``k`` only (with the body's own inertia, round 67: ``w R`` 0.123 against ``v`` 0.451 m/s, a ratio
+    of 0.27; it rolls at 0.146 s); measured with the point contact 0.156 against 0.410 (0.38: the first bounce's load
+    above the weight). The check: the ratio under 1/2 and the spin up (over 0.05 m/s): a contact that rolls at once
+    fails it."""
     return r["spin"][1] / r["v"][1] < 0.5 and r["spin"][1] > 0.05
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("consts,slides", [({}, True), ({"FRICTION_CAP": 0}, False), ({"GRID_PASSES": 4}, True),
-                                           ({"GRID_PASSES": 4, "FRICTION_CAP": 0}, False)])
+@pytest.mark.parametrize("consts,slides", [
+    ({}, True), ({"FRICTION_CAP": 0}, False),
+    pytest.param({"GRID_PASSES": 4}, True, marks=pytest.mark.xfail(strict=True, reason=(
+        "round 67: with the body's own inertia (rollI) the grid constraint's ball reads w R 0.183 against v 0.357 at "
+        "0.05 s (0.51; Coulomb's 0.27): the front's plastic stops brake it beyond mu m g (docs/rigid.md)"))),
+    ({"GRID_PASSES": 4, "FRICTION_CAP": 0}, False)])
 def test_the_point_contact_caps_friction_at_coulombs(consts, slides):
     """The point contact's Coulomb cap, and its catch: without the cap (``FRICTION_CAP`` 0: the stuck change whole)
     the ball rolls at once (measured ``w R`` 0.278 against ``v`` 0.333 m/s at 0.05 s). Round 67's grid constraint
-    (``GRID_PASSES`` 4, the cap per point at ``mu lambda_n``): ``w R`` 0.137 against ``v`` 0.360 (0.38); without the
-    cap 0.265 against 0.303 (0.87)."""
+    (``GRID_PASSES`` 4, the cap per point at ``mu lambda_n``): ``w R`` 0.137 against ``v`` 0.360 (0.38) with the
+    engines' old inertia, 0.183 against 0.357 (0.51, a strict xfail) with the body's own (round 67); without the cap
+    0.265 against 0.303 (0.87)."""
     import gasp_core.mpm.rigid_sdf as sdf
     _engine("warp_mpm")
     old = {k: getattr(sdf, k) for k in ("POINT_CONTACT", *consts)}
@@ -318,8 +323,8 @@ def test_with_the_point_contact_a_ball_rolls_on_jelly_among_three_bodies():
 # solved against the grid velocities (rigid_sdf.GRID_PASSES 4; warp_mpm's point_grid.py). It holds a soft body on a
 # ball (tests/test_point_contact.py) but rolls worse than round 66's contact per point: every row misses 5 %.
 GRID_MISSES = {
-    (32, 0.03, 0.0): "n_grid 32, R 3 cm, frictionless: v 0.500 -> 0.423 (-15.4 %), w R -1.8 %",
-    (32, 0.03, 0.5): "n_grid 32, R 3 cm, mu 0.5: v 0.500 -> 0.456 (-8.8 %), w R 0.500 -> 0.433 (-13.4 %)",
+    (32, 0.03, 0.0): "n_grid 32, R 3 cm, frictionless: v 0.500 -> 0.431 (-13.8 %), w R -4.4 % (round 67, own inertia)",
+    (32, 0.03, 0.5): "n_grid 32, R 3 cm, mu 0.5: v 0.500 -> 0.449 (-10.2 %), w R 0.500 -> 0.426 (-14.8 %)",
 }
 
 
