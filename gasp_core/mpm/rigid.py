@@ -57,8 +57,9 @@ RIGID_SLOP = 0.05
 APIC_SPIN = 0.0
 #: Fixed-point passes (0 to 4: the kernels' loop runs at most 4) of the rigid update's implicit midpoint rotation:
 #: the spin that turns the body over a substep is ``I(R_h)^-1 L`` at the half-turned pose ``R_h = exp(dt w / 2) R``
-#: (each grid plugin's ``rigid_update``). 0 is the explicit step before round 67 (the spin at ``R``), under which a tumbling 6 x 4 x 2 cm box at 10 rad/s gained
-#: 7.6 % of its energy in a second at 2 substeps a frame (3.0 % with APIC's inertia); ``docs/rigid.md`` "Round 67".
+#: (each grid plugin's ``rigid_update``). 0 is the explicit step before round 67 (the spin at ``R``), under which a
+#: tumbling 6 x 4 x 2 cm box at 10 rad/s gained 7.6 % of its energy in a second at 2 substeps a frame (3.0 % with
+#: APIC's inertia); ``docs/rigid.md`` "Round 67".
 ROTATION_PASSES = 4
 
 
