@@ -27,7 +27,7 @@ from .fields import build_field_reads
 from .precision import MODULE_OPTIONS, build_types
 from .rigid_pairs import mat33d, vec3d
 from .sdf_at import build_sdf_at
-from .stencil import build_gather, build_stencil
+from .stencil import build_gather, build_stencil, build_stencil_at
 
 
 @functools.cache
@@ -36,6 +36,7 @@ def build_point_contact(Ft):
     kernels and their helpers are closures of the scalar type (``rigid_collider.build_collider``'s reason)."""
     vec3, vec4 = build_types(Ft)[:2]
     in_grid, weights = build_stencil(Ft)
+    stencil_at = build_stencil_at(Ft)
     field_offset_base, gather = build_field_reads(Ft)[0], build_gather(Ft)
     sdf_at = build_sdf_at(Ft)
 
@@ -87,11 +88,7 @@ def build_point_contact(Ft):
         pc_s[p] = -1
         X = (x[p] - lo) * inv_dx
         if rigid[body[p]] == 0 and in_grid(X, n_grid):
-            b0 = wp.floor(X[0] - Ft(0.5))
-            b1 = wp.floor(X[1] - Ft(0.5))
-            b2 = wp.floor(X[2] - Ft(0.5))
-            W = weights(X - vec3(b0, b1, b2))
-            idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
+            W, idx0, fx = stencil_at(X, n_grid)
             vg, B = gather(grid_v, grid_dv, field_offset_base(grid_dv, in_a, body[p], n_grid * n_grid * n_grid), W,
                            idx0, n_grid)
             vp = to64(vg)
@@ -199,11 +196,7 @@ def build_point_contact(Ft):
                 sc = wp.float64(1.0)
             J = -wp.float64(p_mass[p]) * (dvn + sc * dvt)
             X = (x0[p] - lo) * inv_dx
-            b0 = wp.floor(X[0] - Ft(0.5))
-            b1 = wp.floor(X[1] - Ft(0.5))
-            b2 = wp.floor(X[2] - Ft(0.5))
-            W = weights(X - vec3(b0, b1, b2))
-            idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
+            W, idx0, fx = stencil_at(X, n_grid)
             off = n_grid * n_grid * n_grid   # the point's field: B unless its body is A's
             if in_a[body[p]] != 0:
                 off = 0

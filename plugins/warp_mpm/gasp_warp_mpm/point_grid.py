@@ -30,7 +30,7 @@ from .fields import build_field_reads
 from .precision import MODULE_OPTIONS, build_types
 from .rigid_pairs import mat33d, vec3d
 from .sdf_at import build_sdf_at
-from .stencil import build_gather, build_stencil
+from .stencil import build_gather, build_stencil, build_stencil_at
 
 #: The floats of a slot in ``pg_sl``.
 NS = wp.constant(32)
@@ -42,6 +42,7 @@ def build_point_grid(Ft):
     and their helpers are closures of the scalar type (``rigid_collider.build_collider``'s reason)."""
     vec3 = build_types(Ft)[0]
     in_grid, weights = build_stencil(Ft)
+    stencil_at = build_stencil_at(Ft)
     field_offset_base, gather = build_field_reads(Ft)[0], build_gather(Ft)
     sdf_at = build_sdf_at(Ft)
 
@@ -165,11 +166,7 @@ def build_point_grid(Ft):
         pc_s[p] = -1
         X = (x[p] - lo) * inv_dx
         if rigid[body[p]] == 0 and in_grid(X, n_grid):
-            b0 = wp.floor(X[0] - Ft(0.5))
-            b1 = wp.floor(X[1] - Ft(0.5))
-            b2 = wp.floor(X[2] - Ft(0.5))
-            W = weights(X - vec3(b0, b1, b2))
-            idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
+            W, idx0, fx = stencil_at(X, n_grid)
             off = field_offset_base(grid_dv, in_a, body[p], n_grid * n_grid * n_grid)
             xp = to64(x[p])
             best = wp.float64(1.0e30)
@@ -186,7 +183,7 @@ def build_point_grid(Ft):
                         nb = wp.normalize(R * g)
             dlt = vec3d(wp.float64(0.0))
             if sb >= 0 and patch > wp.float64(0.0) and best < skin + wp.float64(2.0) * patch:
-                m = soft_normal(pc_m, off, idx0, X - vec3(b0, b1, b2), n_grid)
+                m = soft_normal(pc_m, off, idx0, fx, n_grid)
                 if wp.length(m) > wp.float64(0.0):
                     rb = bodies[sb]
                     best, nb, dlt = patch_least(xp - centre[rb], m, patch, rot[rb], sb, best, nb, phi, grad, org, hs,
@@ -227,11 +224,7 @@ def build_point_grid(Ft):
         s = pc_s[p]
         if s >= 0:
             X = (x[p] - lo) * inv_dx
-            b0 = wp.floor(X[0] - Ft(0.5))
-            b1 = wp.floor(X[1] - Ft(0.5))
-            b2 = wp.floor(X[2] - Ft(0.5))
-            W = weights(X - vec3(b0, b1, b2))
-            idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
+            W, idx0, fx = stencil_at(X, n_grid)
             off = field_offset_base(grid_dv, in_a, body[p], n_grid * n_grid * n_grid)
             g = wp.float64(0.0)
             for i in range(3):
@@ -265,11 +258,7 @@ def build_point_grid(Ft):
         s = pc_s[p]
         if s >= 0:
             X = (x[p] - lo) * inv_dx
-            b0 = wp.floor(X[0] - Ft(0.5))
-            b1 = wp.floor(X[1] - Ft(0.5))
-            b2 = wp.floor(X[2] - Ft(0.5))
-            W = weights(X - vec3(b0, b1, b2))
-            idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
+            W, idx0, fx = stencil_at(X, n_grid)
             off = field_offset_base(grid_dv, in_a, body[p], n_grid * n_grid * n_grid)
             vg, B = gather(grid_v, grid_dv, off, W, idx0, n_grid)
             o = NS * s

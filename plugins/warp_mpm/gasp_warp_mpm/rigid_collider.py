@@ -28,7 +28,7 @@ from .collider_pair import NA, build_collider_funcs, build_pair
 from .fields import build_b_normal, build_field_reads
 from .precision import MODULE_OPTIONS, build_types
 from .rigid_pairs import mat33d, vec3d
-from .stencil import build_gather, build_stencil
+from .stencil import build_gather, build_stencil, build_stencil_at
 from .touch import build_held
 
 
@@ -41,6 +41,7 @@ def build_collider(Ft):
     held_node = build_held(Ft)
     b_normal = build_b_normal(Ft)
     in_grid, weights = build_stencil(Ft)
+    stencil_at = build_stencil_at(Ft)
     field_offset_base, gather = build_field_reads(Ft)[0], build_gather(Ft)
     field_v, node_x, relative = build_collider_funcs(Ft)[:3]
 
@@ -188,11 +189,7 @@ def build_collider(Ft):
         s = slot[body[p]]
         X = (x[p] - lo) * inv_dx
         if in_grid(X, n_grid):
-            b0 = wp.floor(X[0] - Ft(0.5))
-            b1 = wp.floor(X[1] - Ft(0.5))
-            b2 = wp.floor(X[2] - Ft(0.5))
-            W = weights(X - vec3(b0, b1, b2))
-            idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
+            W, idx0, fx = stencil_at(X, n_grid)
             off = field_offset_base(grid_dv, in_a, body[p], n_grid * n_grid * n_grid)
             if s < 0:
                 for i in range(3):

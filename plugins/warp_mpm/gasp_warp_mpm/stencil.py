@@ -46,6 +46,27 @@ def build_stencil(Ft):
 
 
 @functools.cache
+def build_stencil_at(Ft):
+    """``stencil_at(X, n_grid)``: ``(W, idx0, fx)`` of a point at grid coordinates ``X`` (``(x - lo) inv_dx``, in
+    cells): its quadratic B-spline weights (:func:`build_stencil`'s ``weights``), the flat index of its stencil's
+    first node ``base = floor(X - 0.5)`` and its offset from it ``fx = X - base`` (cells); the caller tests
+    ``in_grid`` first. Shared by the contacts' kernels
+    (``point_contact.py``, ``point_grid.py``, ``rigid_collider.py``), scalar type ``Ft``."""
+    vec3, vec4, mat33 = build_types(Ft)
+    weights = build_stencil(Ft)[1]
+
+    @wp.func
+    def stencil_at(X: vec3, n_grid: int):
+        b0 = wp.floor(X[0] - Ft(0.5))
+        b1 = wp.floor(X[1] - Ft(0.5))
+        b2 = wp.floor(X[2] - Ft(0.5))
+        fx = X - vec3(b0, b1, b2)
+        return weights(fx), (int(b0) * n_grid + int(b1)) * n_grid + int(b2), fx
+
+    return stencil_at
+
+
+@functools.cache
 def build_scatter_vec(Ft):
     """``scatter_vec(grid_s, idx0, n_grid, W, value)``: a vector added to a point's 27 nodes with its weights (P2G),
     scalar type ``Ft``."""
