@@ -80,6 +80,29 @@ class PointContact(PointGrid):
         return p, g
 
     @ti.func
+    def pc_nearest(self, xp, best0, ahead: ti.template()):
+        """``(d, s, n)``: the slot whose round body (``rc_pt`` 1) is nearest the point ``xp`` (m, float64) by its
+        lattice's distance (:meth:`pc_sdf`), under ``best0``: ``s`` -1 none, ``n`` the unit normal out of the body
+        (world frame); ``ahead``: each body's centre moved over the substep by its velocity in ``rc_acc`` (round
+        66's mark) or where it is (round 67's, ``point_grid.py``). warp_mpm's ``sdf_at.build_nearest``."""
+        best = best0
+        sb = -1
+        nb = ti.Vector.zero(ti.f64, 3)
+        for s in range(self.rc_ns):
+            if self.rc_pt[s] != 0:
+                rb = self.rc_bodies[s]
+                R = self.rb_R[rb]
+                c = self.rb_c[rb]
+                if ti.static(ahead):
+                    c = c + ti.cast(self.dt[None], ti.f64) * self.rc_vec(NA * s + 4)
+                d, g = self.pc_sdf(R.transpose() @ (xp - c), s)
+                if d < best and g.norm() > 0.0:
+                    best = d
+                    sb = s
+                    nb = (R @ g).normalized()
+        return best, sb, nb
+
+    @ti.func
     def pc_body_v(self, at_v, at_w, r):
         return self.rc_vec(at_v) + self.rc_vec(at_w).cross(r)
 
@@ -117,17 +140,7 @@ class PointContact(PointGrid):
                 xp = ti.cast(self.x[p], ti.f64) + dt * vp
                 self.pc_v[p] = vp
                 self.pc_x[p] = xp
-                best = skin
-                sb = -1
-                nb = ti.Vector.zero(ti.f64, 3)
-                for s in range(self.rc_ns):
-                    rb = self.rc_bodies[s]
-                    R = self.rb_R[rb]
-                    d, g = self.pc_sdf(R.transpose() @ (xp - (self.rb_c[rb] + dt * self.rc_vec(NA * s + 4))), s)
-                    if self.rc_pt[s] != 0 and d < best and g.norm() > 0.0:
-                        best = d
-                        sb = s
-                        nb = (R @ g).normalized()
+                best, sb, nb = self.pc_nearest(xp, skin, True)
                 if sb >= 0:
                     o = NA * sb
                     r = self.pc_arm(p, self.rc_bodies[sb], o)

@@ -82,18 +82,7 @@ class PointGrid:
             base, fx, ok = self.base_fx(self.x[p])
             if ok and self.rb_rigid[self.body[p]] == 0:
                 xp = ti.cast(self.x[p], ti.f64)
-                best = ti.cast(1.0e30, ti.f64)
-                sb = -1
-                nb = ti.Vector.zero(ti.f64, 3)
-                for s in range(self.rc_ns):
-                    if self.rc_pt[s] != 0:
-                        rb = self.rc_bodies[s]
-                        R = self.rb_R[rb]
-                        d, g = self.pc_sdf(R.transpose() @ (xp - self.rb_c[rb]), s)
-                        if d < best and g.norm() > 0.0:
-                            best = d
-                            sb = s
-                            nb = (R @ g).normalized()
+                best, sb, nb = self.pc_nearest(xp, ti.cast(1.0e30, ti.f64), False)
                 w = self.weights(fx)
                 dlt = ti.Vector.zero(ti.f64, 3)
                 f = 1 - self.in_a[self.body[p]]

@@ -26,7 +26,7 @@ from .collider_pair import NA, NP
 from .fields import build_field_reads
 from .precision import MODULE_OPTIONS, build_types
 from .rigid_pairs import mat33d, vec3d
-from .sdf_at import build_sdf_at
+from .sdf_at import build_nearest
 from .stencil import build_gather, build_stencil, build_stencil_at
 
 
@@ -38,7 +38,7 @@ def build_point_contact(Ft):
     in_grid, weights = build_stencil(Ft)
     stencil_at = build_stencil_at(Ft)
     field_offset_base, gather = build_field_reads(Ft)[0], build_gather(Ft)
-    sdf_at = build_sdf_at(Ft)
+    nearest = build_nearest(Ft)
 
     @wp.func
     def body_v(acc: wp.array(dtype=wp.float64), at_v: int, at_w: int, r: vec3d):
@@ -95,19 +95,9 @@ def build_point_contact(Ft):
             xp = to64(x[p]) + dt * vp
             pc_v[p] = vp
             pc_x[p] = xp
-            best = wp.float64(skin)
-            sb = int(-1)
-            nb = vec3d(wp.float64(0.0))
-            for s in range(ns):
-                rb = bodies[s]
-                c = centre[rb] + dt * vec3d(acc[NA * s + 4], acc[NA * s + 5], acc[NA * s + 6])
-                R = rot[rb]
-                d, g = sdf_at(wp.transpose(R) * (xp - c), s, phi, grad, org, hs, dims)
-                # a body with faces (rc_pt 0, round 63's band) has a one-voxel lattice: no contact
-                if rc_pt[s] != 0 and d < best and wp.length(g) > wp.float64(0.0):
-                    best = d
-                    sb = s
-                    nb = wp.normalize(R * g)
+            # a body with faces (rc_pt 0, round 63's band) has a one-voxel lattice: no contact
+            best, sb, nb = nearest(xp, wp.float64(skin), ns, rc_pt, bodies, centre, rot, acc, 1, dt, phi, grad, org,
+                                   hs, dims)
             if sb >= 0:
                 o = NA * sb
                 rb = bodies[sb]

@@ -29,7 +29,7 @@ from .collider_pair import NA
 from .fields import build_field_reads
 from .precision import MODULE_OPTIONS, build_types
 from .rigid_pairs import mat33d, vec3d
-from .sdf_at import build_sdf_at
+from .sdf_at import build_nearest, build_sdf_at
 from .stencil import build_gather, build_stencil, build_stencil_at
 
 #: The floats of a slot in ``pg_sl``.
@@ -45,6 +45,7 @@ def build_point_grid(Ft):
     stencil_at = build_stencil_at(Ft)
     field_offset_base, gather = build_field_reads(Ft)[0], build_gather(Ft)
     sdf_at = build_sdf_at(Ft)
+    nearest = build_nearest(Ft)
 
     @wp.func
     def to64(a: vec3):
@@ -169,18 +170,8 @@ def build_point_grid(Ft):
             W, idx0, fx = stencil_at(X, n_grid)
             off = field_offset_base(grid_dv, in_a, body[p], n_grid * n_grid * n_grid)
             xp = to64(x[p])
-            best = wp.float64(1.0e30)
-            sb = int(-1)
-            nb = vec3d(wp.float64(0.0))
-            for s in range(ns):
-                if rc_pt[s] != 0:
-                    rb = bodies[s]
-                    R = rot[rb]
-                    d, g = sdf_at(wp.transpose(R) * (xp - centre[rb]), s, phi, grad, org, hs, dims)
-                    if d < best and wp.length(g) > wp.float64(0.0):
-                        best = d
-                        sb = s
-                        nb = wp.normalize(R * g)
+            best, sb, nb = nearest(xp, wp.float64(1.0e30), ns, rc_pt, bodies, centre, rot, sl, 0, dt, phi, grad, org,
+                                   hs, dims)
             dlt = vec3d(wp.float64(0.0))
             if sb >= 0 and patch > wp.float64(0.0) and best < skin + wp.float64(2.0) * patch:
                 m = soft_normal(pc_m, off, idx0, fx, n_grid)
