@@ -11,6 +11,7 @@ from gasp_core.mpm.rigid import affine_dx
 
 from . import collider_pair as cp
 from . import rigid_collider as rc
+from .field_nodes import shared_threads, sweep_args
 from .rigid_pairs import vec3d
 
 
@@ -39,7 +40,7 @@ def allocate_collider(eng, Ft) -> None:
     eng.rc_sb = wp.full(2 * n, -1, dtype=wp.int32, device=d)
     eng.rc_m = wp.zeros(n, dtype=eng.k.vec3, device=d)
     eng.rc_n = wp.zeros(n, dtype=eng.k.vec3, device=d)
-    eng.rc_o = wp.zeros(n, dtype=wp.int32, device=d)
+    eng.rc_o = wp.full(n, -1, dtype=wp.int32, device=d)   # an empty node's slot (rc_mark sweeps the box only)
     eng.rc_box = wp.array(np.asarray(data["boxes"], np.float64).reshape(-1, 3), dtype=vec3d, device=d)
     eng.rc_acc = wp.zeros(int(rc.NA) * len(bodies), dtype=wp.float64, device=d)
     # round 66: the round bodies' slots (1: the point contact, point_contact.py; 0: the band), their lattices
@@ -58,13 +59,13 @@ def with_mark(eng, Ft, launches: list) -> list:
     walls = eng.wall_mu.shape[0] > 0   # the walls' reach as fields.field_launches gives it
     side = (np.asarray(eng.setup.domain_hi, float) - np.asarray(eng.setup.domain_lo, float)) / eng.dx
     wall_lo, wall_hi = (eng.wall_in, side - eng.wall_in) if walls else (-1.0, np.full(3, 1e30))
-    mark = wp.launch(rc.build_collider(Ft)[0], dim=eng.n_grid ** 3, device=eng.device, record_cmd=True, inputs=[
+    mark = wp.launch(rc.build_collider(Ft)[0], dim=shared_threads(eng), device=eng.device, record_cmd=True, inputs=[
         eng.grid_mv, eng.grid_sv, eng.grid_vf, eng.n_grid, eng.ground, Ft(eng.dx ** 3), Ft(wall_lo),
         eng.k.vec3(*[float(c) for c in wall_hi]), Ft(eng.field_touch), eng.ground_touch, eng.flow_touch,
         eng.field_rule % 2, eng.rc_m, eng.rc_n, eng.grid_dv, eng.in_a, eng.rc_bodies, eng.rc_ns, eng.rc_multi,
         int(bool(GROUND_MIRROR)), float(core_collider.BAND * eng.dx),
         eng.k.vec3(*[float(c) for c in eng.setup.domain_lo]), Ft(eng.dx), eng.rc_o, eng.rb_c, eng.rb_R, eng.rc_box,
-        float(NODE_PAD * eng.dx), eng.rc_sb, eng.rc_pt])
+        float(NODE_PAD * eng.dx), eng.rc_sb, eng.rc_pt, *sweep_args(eng)])   # round 68: over the box sweep
     if eng.rc_pt.numpy().any():   # round 66: the fields' node masses for the point contact (point_contact.py)
         from .point_contact import mass_launch
         mark = [mark, mass_launch(eng, Ft)]

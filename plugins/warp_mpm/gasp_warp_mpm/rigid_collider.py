@@ -25,6 +25,7 @@ import warp as wp
 from gasp_core.mpm.fields import MIN_FRACTION, MIN_GRADIENT
 
 from .collider_pair import NA, build_collider_funcs, build_pair
+from .field_nodes import build_sweep
 from .fields import build_b_normal, build_field_reads
 from .precision import MODULE_OPTIONS, build_types
 from .rigid_pairs import mat33d, vec3d
@@ -44,6 +45,7 @@ def build_collider(Ft):
     stencil_at = build_stencil_at(Ft)
     field_offset_base, gather = build_field_reads(Ft)[0], build_gather(Ft)
     field_v, node_x, relative = build_collider_funcs(Ft)[:3]
+    box_units, unit_first, unit_len, box_q = build_sweep(Ft)
 
     @wp.func
     def owner(x: vec3d, in_a: wp.array(dtype=wp.int32), bodies: wp.array(dtype=wp.int32), ns: int, multi: int,
@@ -81,16 +83,18 @@ def build_collider(Ft):
             best = -1
         return best, dbest
 
-    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def rc_mark(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), grid_vf: wp.array(dtype=Ft),
-                n_grid: int, ground: wp.array(dtype=vec3), cell: Ft, wall_lo: Ft, wall_hi: vec3, touch_frac: Ft,
-                ground_touch: wp.array(dtype=wp.int32), flow_touch: wp.array(dtype=wp.int32), free: int,
-                rc_m: wp.array(dtype=vec3), rc_n: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3),
-                in_a: wp.array(dtype=wp.int32), bodies: wp.array(dtype=wp.int32), ns: int, multi: int,
-                mirror: int, band: wp.float64, lo: vec3, dx: Ft, rc_o: wp.array(dtype=wp.int32),
-                centre: wp.array(dtype=vec3d), rot: wp.array(dtype=mat33d), box: wp.array(dtype=vec3d),
-                pad: wp.float64, rc_sb: wp.array(dtype=wp.int32), rc_pt: wp.array(dtype=wp.int32)):
-        node = wp.tid()
+    @wp.func
+    def mark_node(node: int, grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), grid_vf: wp.array(dtype=Ft),
+                  n_grid: int, ground: wp.array(dtype=vec3), cell: Ft, wall_lo: Ft, wall_hi: vec3, touch_frac: Ft,
+                  ground_touch: wp.array(dtype=wp.int32), flow_touch: wp.array(dtype=wp.int32), free: int,
+                  rc_m: wp.array(dtype=vec3), rc_n: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3),
+                  in_a: wp.array(dtype=wp.int32), bodies: wp.array(dtype=wp.int32), ns: int, multi: int, mirror: int,
+                  band: wp.float64, lo: vec3, dx: Ft, rc_o: wp.array(dtype=wp.int32), centre: wp.array(dtype=vec3d),
+                  rot: wp.array(dtype=mat33d), box: wp.array(dtype=vec3d), pad: wp.float64,
+                  rc_sb: wp.array(dtype=wp.int32), rc_pt: wp.array(dtype=wp.int32)):
+        """One node of ``rc_mark``: its soft bodies cleared (``rc_sb``), its slot (``rc_o``), its fields' own
+        velocities, the band's mark and normal (``rc_m``, ``rc_n``); an empty node's defaults (no mass, no mark,
+        slot -1)."""
         nn = n_grid * n_grid
         n_nodes = nn * n_grid
         rc_sb[node] = -1   # round 65: the nodes' soft bodies, written by rc_psum (collider_pair.py)
@@ -146,6 +150,30 @@ def build_collider(Ft):
         rc_m[node] = vec3(m_r, m - m_r, flag)
         rc_n[node] = nh
         rc_o[node] = own
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def rc_mark(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), grid_vf: wp.array(dtype=Ft), n_grid: int,
+                ground: wp.array(dtype=vec3), cell: Ft, wall_lo: Ft, wall_hi: vec3, touch_frac: Ft,
+                ground_touch: wp.array(dtype=wp.int32), flow_touch: wp.array(dtype=wp.int32), free: int,
+                rc_m: wp.array(dtype=vec3), rc_n: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3),
+                in_a: wp.array(dtype=wp.int32), bodies: wp.array(dtype=wp.int32), ns: int, multi: int, mirror: int,
+                band: wp.float64, lo: vec3, dx: Ft, rc_o: wp.array(dtype=wp.int32), centre: wp.array(dtype=vec3d),
+                rot: wp.array(dtype=mat33d), boxes: wp.array(dtype=vec3d), pad: wp.float64,
+                rc_sb: wp.array(dtype=wp.int32), rc_pt: wp.array(dtype=wp.int32), box: wp.array(dtype=wp.int32),
+                threads: int, along: int):
+        """``mark_node`` over the box sweep ``box`` (``field_nodes.build_sweep``; round 68: the hull of the boxes
+        P2G touched this substep and the last, not the whole grid: outside it every node holds the empty node's
+        defaults, which the last sweep over it wrote, field_nodes' module notes)."""
+        n = box_units(box, along)
+        run = (n + threads - 1) / threads
+        for r in range(run):
+            q = box_q(wp.tid(), r, run, threads, along)
+            if q < n:
+                first = unit_first(box, q, n_grid, along)
+                for node in range(first, first + unit_len(box, along)):
+                    mark_node(node, grid_mv, grid_sv, grid_vf, n_grid, ground, cell, wall_lo, wall_hi, touch_frac,
+                              ground_touch, flow_touch, free, rc_m, rc_n, grid_dv, in_a, bodies, ns, multi, mirror,
+                              band, lo, dx, rc_o, centre, rot, boxes, pad, rc_sb, rc_pt)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def rc_sum(grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), rc_m: wp.array(dtype=vec3), ra: int,
