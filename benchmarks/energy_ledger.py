@@ -165,7 +165,9 @@ class Stored:
 
 
 class TaichiSteps:
-    """taichi_mpm's substep in pieces (``MPMSolver.substeps(1)``'s order, G2P and P2G unfused)."""
+    """taichi_mpm's substep in pieces (``MPMSolver.substeps(1)``'s order, G2P and P2G unfused; the grid update's
+    pieces: ``v4`` after the nodes' update and the touched layer, ``v5`` after the balance's fix and the holds, as
+    :class:`WarpSteps` reads them)."""
 
     def __init__(self, engine):
         self.s = engine.solver
@@ -190,10 +192,11 @@ class TaichiSteps:
         acc = s.grid_mv.to_numpy().astype(np.float64).sum(0)
         ng = acc.shape[0]
         acc = acc.reshape(ng ** 3, -1)
-        s.grid_update()
+        s.grid_nodes()   # MPMSolver.grid_update's pieces (round 68: since b5d3d626 it runs the balance's fix and the
+        s.touch_after()  # holds itself, which this ledger then booked in `rule` and ran a second time), as warp_mpm's
         v4 = s.grid_v.to_numpy().astype(np.float64).reshape(-1, 3)
-        if s.n_spin:
-            s.fix_contact()
+        s.fix_contact()   # nothing without a balance
+        s.hold_nodes()
         v5 = s.grid_v.to_numpy().astype(np.float64).reshape(-1, 3)
         s.last_g2p(None)
         fb = acc[:, -1] if s.pc else np.zeros(len(acc))   # the particle contact's friction budget (last channel)

@@ -85,11 +85,14 @@ def scene(body: str, engine: str, n_grid: int, v: float, cfl: float | None = Non
 
 def run(body: str, engine: str, n_grid: int, v: float, ms: float, cfl: float | None = None,
         gravity_scale: float = 1.0, stiffness_scale: float = 1.0, every_ms: float = 5.0,
-        damping: float | None = None, flip: float | None = None, parts: bool = False, rule: str | None = None) -> dict:
+        damping: float | None = None, flip: float | None = None, parts: bool = False, rule: str | None = None,
+        stress_at: str | None = None, friction: float | None = None) -> dict:
     """One landing's ledger (module notes): sums of the sinks, the energy left, and a row every ``every_ms``.
     Prototypes, off by default (None): ``damping``, the particle contact's damping ratio
     (``gasp_core.mpm.contact.DAMPING``, 0.5) for this run; ``flip``, the engines' AFLIP option; ``rule``, the
-    engines' ``cfl_rule`` option (``gasp_core.mpm.substeps.CFL_RULES``). ``parts``: also the
+    engines' ``cfl_rule`` option (``gasp_core.mpm.substeps.CFL_RULES``); ``stress_at``, the engines' option
+    (``gasp_core.mpm.stress_at``, round 68); ``friction``, the ground's friction for this run (round 68's split of the
+    donut's gain). ``parts``: also the
     parts of 1 % of the mass or more at the end (``gasp_core.testing.pieces_count.FramePieces``)."""
     import gasp_core.mpm.contact as gc
     from gasp_core.seam.build import build_engine
@@ -99,11 +102,16 @@ def run(body: str, engine: str, n_grid: int, v: float, ms: float, cfl: float | N
         setup.options["flip"] = flip
     if rule is not None:
         setup.options["cfl_rule"] = rule
+    if stress_at is not None:
+        setup.options["stress_at"] = stress_at
+    if friction is not None:
+        setup.boundaries = [dataclasses.replace(b, friction=friction) if b.kind == "ground" else b
+                            for b in setup.boundaries]
     keep = gc.DAMPING
     gc.DAMPING = keep if damping is None else damping
     try:
         return _run(setup, body, engine, n_grid, v, ms, cfl, gravity_scale, stiffness_scale, every_ms, parts) | {
-            "damping": damping, "flip": flip, "rule": rule}
+            "damping": damping, "flip": flip, "rule": rule, "stress_at": stress_at, "friction": friction}
     finally:
         gc.DAMPING = keep
 
@@ -195,7 +203,7 @@ def parts_run(engine: str, n_grid: int, v: float, frames: int = 5, damping: floa
 
 def key(r: dict) -> tuple:
     return (r["body"], r["engine"], r["n_grid"], r["speed"], r["ms"], r.get("cfl"), r["gravity_scale"],
-            r["stiffness_scale"], r.get("damping"), r.get("flip"), r.get("rule"))
+            r["stiffness_scale"], r.get("damping"), r.get("flip"), r.get("rule"), r.get("stress_at"), r.get("friction"))
 
 
 def report(runs: list[dict]) -> list[str]:
@@ -213,7 +221,8 @@ def report(runs: list[dict]) -> list[str]:
         pct = lambda x: f"{100 * x / e0:.1f}"   # noqa: E731
         tag = "" if r["gravity_scale"] == 1 and r["stiffness_scale"] == 1 else \
             f" (catch: g x{r['gravity_scale']}, E x{r['stiffness_scale']})"
-        tag += "".join(f" ({k} {r[k]})" for k in ("damping", "flip", "rule") if r.get(k) is not None)
+        tag += "".join(f" ({k} {r[k]})" for k in ("damping", "flip", "rule", "stress_at", "friction")
+                       if r.get(k) is not None)
         tag += f" (parts {', '.join(f'{q:.3f}' for q in r['parts'])})" if r.get("parts") else ""
         lines.append(f"| {r['body']}{tag} | {r['engine']} | {r['n_grid']} | {r['speed']} | {r['ms']:g} | "
                      f"{r['dt'] * 1e3:.3f} | {r['n_points']} | {e0:.3f} | {pct(s['p2g'])} | {pct(s['contact'])} | "
@@ -253,6 +262,8 @@ def main(argv=None) -> int:
     ap.add_argument("--damping", type=float, default=None, help="prototype: the contact's damping ratio (0.5)")
     ap.add_argument("--flip", type=float, default=None, help="prototype: the engines' AFLIP blend")
     ap.add_argument("--rule", default=None, help="the engines' cfl_rule option ('max', 'sum')")
+    ap.add_argument("--stress-at", default=None, help="the engines' stress_at option ('start', 'mid'; round 68)")
+    ap.add_argument("--friction", type=float, default=None, help="the ground's friction (default: the scene's)")
     ap.add_argument("--parts", action="store_true", help="count the parts of 1 %% or more at the end")
     ap.add_argument("--parts-only", type=int, default=0, help="the brittle donut's parts after this many frames, "
                     "engine alone (printed and kept under 'parts_runs')")
@@ -278,7 +289,7 @@ def main(argv=None) -> int:
             for v in (float(s) for s in a.speeds.split(",")):
                 for engine in a.engines.split(","):
                     r = run(body, engine, ng, v, a.ms, a.cfl, a.gravity_scale, a.stiffness_scale, damping=a.damping,
-                            flip=a.flip, parts=a.parts, rule=a.rule)
+                            flip=a.flip, parts=a.parts, rule=a.rule, stress_at=a.stress_at, friction=a.friction)
                     r["gain"] = max(0.0, max(t["E"] for t in r["trace"]) / r["E0"] - 1.0)
                     runs = [q for q in runs if key(q) != key(r)] + [r]
                     print(json.dumps({k: r[k] for k in ("body", "engine", "n_grid", "speed", "E0", "E_end",

@@ -135,9 +135,10 @@ def test_ledger_closes_and_gains_nothing(engine, n_grid, speed):
 
 
 COARSE = ("n_grid 32 at 4.43 m/s, cfl 0.4, gains 1.10 % (round 54, cfl_rule sum; 1.81 % under 'max', round 53), both"
-          " engines")
+          " engines; 0.009 % under the option stress_at 'mid' (round 68, tests/test_stress_at.py), off by default")
 DONUT = ("the jelly donut at the default quality's cfl 0.8 gains 2.75 % (round 54, cfl_rule sum: (c(F) + |v|) dt / dx"
-         " up to 0.93; 8.70 % under 'max', round 53), both engines")
+         " up to 0.93; 8.70 % under 'max', round 53), both engines; 1.33 % with the ground's friction 0 (round 68); "
+         "0.18 % under the option stress_at 'mid' (round 68, tests/test_stress_at.py), off by default")
 
 
 def paired_gain(r: dict) -> float:

@@ -3,7 +3,7 @@
 - :class:`GridConfig`: what every grid engine takes (``device``, ``precision``, ``dt``, ``n_substeps``, ``cfl``,
   ``max_substeps``); ``dt`` excludes ``n_substeps`` as declared data (the core checks them).
 - :class:`MPMConfig`: the MLS-MPM engines of ``docs/mpm.md`` add ``passive_every``, ``flip``, ``transfer_damping``,
-  ``contact`` and ``contact_balance``, and declare the quality levels' presets measured on them (``docs/speed_accuracy.md``).
+  ``contact``, ``contact_balance``, ``contact_fields`` and ``stress_at`` (round 68), and declare the quality levels' presets measured on them (``docs/speed_accuracy.md``).
 
 A plugin subclasses one of them with its own fields (a thread count, say) and registers it with
 ``EngineInfo(config=...)``; the engine reads ``config(**setup.options)``.
@@ -17,6 +17,7 @@ from gasp_core.seam.config import Preset, config_options, from_option, option
 from gasp_core.seam.options import Option
 from gasp_core.mpm.contact import BALANCE, CONTACT
 from gasp_core.mpm.fields import FIELDS
+from gasp_core.mpm.stress_at import STRESS_AT
 from gasp_core.mpm.substeps import CFL, CFL_RULE, CFL_RULES, MAX_SUBSTEPS, PASSIVE_EVERY
 from gasp_core.mpm.transfer import FLIP, TRANSFER_DAMPING
 
@@ -76,6 +77,7 @@ class MPMConfig(GridConfig):
     contact: str = from_option(CONTACT)
     contact_balance: bool = from_option(BALANCE)
     contact_fields: bool = from_option(FIELDS)
+    stress_at: str = from_option(STRESS_AT)
     PRESETS: ClassVar = MPM_PRESETS
 
 

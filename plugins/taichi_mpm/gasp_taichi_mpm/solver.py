@@ -51,6 +51,7 @@ from .contact import Contact
 from .fields import Fields
 from .forces import Forces, count_set_boxes
 from .grid import GridUpdate
+from .mid_stress import MidStress
 from .rigid import Rigid
 from .rigid_hold import RigidHold
 from .rigid_collider import RigidCollider
@@ -63,7 +64,7 @@ from .viscosity import ImplicitViscosity
 
 
 @ti.data_oriented
-class MPMSolver(RigidCollider, Transfers, ColouredP2G, TileP2G, FixedPointP2G, Constitutive, GridUpdate, Colliders, Forces, Contact, Balance,
+class MPMSolver(MidStress, RigidCollider, Transfers, ColouredP2G, TileP2G, FixedPointP2G, Constitutive, GridUpdate, Colliders, Forces, Contact, Balance,
                 BalanceGPU, Rigid, Fields, RigidHold, FrameChecks, OrderedCPU):
     """Fields and kernels of one simulation.
 
@@ -124,8 +125,9 @@ class MPMSolver(RigidCollider, Transfers, ColouredP2G, TileP2G, FixedPointP2G, C
                  gravity, walls, grounds, regions, real, n_chunks, atomic, extras=None, time_table=None, n_substeps=1,
                  n_material=None, passive_every=1, flip=0.0, coloured=False, p_contact=None, passive_bounds=None,
                  rigid_frames=None, contact_reach=None, body_mass=None, n_colc=0, planes=None, mixed=None, fields=None,
-                 hold=None, box_hold=None, gpu=False, tiles=False, deterministic=False, sort_every=1, touch_speed=0.0):
-        n, self.touch_speed_in = len(x), float(touch_speed)   # m/s: gasp_core.mpm.contact.touch_dashpot_speed
+                 hold=None, box_hold=None, gpu=False, tiles=False, deterministic=False, sort_every=1, touch_speed=0.0,
+                 mid_stress=False):
+        n, self.touch_speed_in, self.mid_stress = len(x), float(touch_speed), bool(mid_stress)   # mid_stress.py
         self.n = n
         self.n_material = n if n_material is None else int(n_material)
         self.has_passive = self.n_material < n

@@ -73,6 +73,9 @@ class Transfers:
         tau = self.return_mapping(p, F)
         if ti.static(self.any_fixed or self.n_set_boxes > 0):   # its stress scattered to match; no damage
             tau = self.held_stress(p, tau, a, d_held)
+        if ti.static(self.mid_stress):   # round 68: the increment's midpoint stress, a free point (mid_stress.py)
+            if a < 0:
+                tau = self.mid_tau(p, C, F, tau)
         eta_v = ti.cast(0.0, self.real)
         if ti.static(self.viscous):   # Kelvin-Voigt, implicit on the grid: the point's J V eta (docs/dissipation.md)
             eta_v = self.mat[self.body[p]][P_ETA] * F.determinant() * self.p_vol[p]

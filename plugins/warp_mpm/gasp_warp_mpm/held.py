@@ -19,6 +19,7 @@ from .forces import build_constrain, build_extras_struct
 from .field_nodes import build_sweep
 from .grid_box import grid_sweep
 from .held_rule import HeldRule, build_held_tau, build_set_box_row, hold_set_faces_launches   # HeldRule: the engine's switch
+from .mid_stress import build_mid_stress
 from .precision import MODULE_OPTIONS, build_types
 
 
@@ -274,6 +275,7 @@ def build_held_return(Ft):
     along_matrix = build_constrain(Ft)[1]
     return_mapping = build_return_mapping(Ft)
     held_tau = build_held_tau(Ft)
+    mid_tau = build_mid_stress(Ft)
 
     @wp.func
     def held_return(Cp: mat33, Fp: mat33, dt: Ft, p: int, code: int, X: vec3, dx: Ft, ex: Extras,
@@ -281,8 +283,8 @@ def build_held_return(Ft):
                     mat_par: wp.array2d(dtype=Ft), Jp: wp.array(dtype=Ft), rule: int, fx: vec3):
         a = held_axis(code, X, dx, ex)
         band = 0   # the crack band weight (rule's bits 1, 2) for a free point only: a held one's stress is its image's
-        if rule >= 2 and a < 0 and code == 0:
-            band = rule // 2
+        if rule % 8 >= 2 and a < 0 and code == 0:
+            band = (rule % 8) // 2
         d_held = Jp[p]
         brittle = mat_kind[body[p]] == BRITTLE
         Cf = Cp
@@ -299,6 +301,8 @@ def build_held_return(Ft):
                 tau = held_tau(F_new, mat_par[body[p], P_MU], mat_par[body[p], P_LAM], d_held)
         if a >= 0:
             tau = along_matrix(ex, q, tau, tau * image_flip(a))
+        elif rule >= 8:   # the midpoint stress (mid_stress.py, MID_BIT)
+            tau = mid_tau(Cp, F_new, tau, dt, p, body, mat_kind, mat_par, Jp, fx)
         return F_new, tau
 
     return held_return

@@ -31,6 +31,7 @@ from gasp_core.mpm.points import HELD_STRAINED, SET_FACE_CELLS
 
 from .constitutive import build_decompositions
 from .fields import build_field_reads
+from .mid_stress import MID_BIT
 from .forces import build_constrain, build_extras_struct, build_set_velocity
 from .precision import MODULE_OPTIONS, build_types
 from .stencil import build_gather, build_stencil
@@ -52,12 +53,13 @@ class HeldRule:
     oblique_band = False
 
     def held_rule_flag(self) -> int:
-        """The kernels' ``rule`` argument where a body is brittle, else 0: bit 0 the held rule (:attr:`held_rule`),
+        """The kernels' ``rule`` argument: where a body is brittle, bit 0 the held rule (:attr:`held_rule`),
         bit 1 the crack band weight (:attr:`weighted_band`), bit 2 the band's projection (:attr:`oblique_band`, with
-        bit 1 only)."""
+        bit 1 only); for every body, bit 3 the midpoint stress (the option ``stress_at = "mid"``, mid_stress.py)."""
         brittle = bool((self.mat_kind.numpy() == BRITTLE).any())
         weighted = bool(self.weighted_band) and brittle
-        return int(bool(self.held_rule) and brittle) + 2 * int(weighted) + 4 * int(weighted and self.oblique_band)
+        return (int(bool(self.held_rule) and brittle) + 2 * int(weighted) + 4 * int(weighted and self.oblique_band)
+                + MID_BIT * int(self.config.stress_at == "mid"))
 
 
 @functools.cache
