@@ -60,7 +60,8 @@ def markdown(rows: list[dict]) -> str:
     out = ["# rolling_family (issue 67): `python benchmarks/rolling_family.py`", "",
            f"Ball and cylinder on a {rl.THETA:g} deg slope (gravity tilted), R = {rl.R} m; a: fitted from "
            f"{rl.FIT_FROM} to {rl.T} s; closed form: rolling (5/7 or 2/3) g sin theta, slipping g (sin - mu cos); "
-           "'own k' the rolling closed form with the engines' inertia (APIC's M dx^2 / 2 added).", "",
+           "'own k' the rolling closed form with the inertia the engines hold (the body's own since round 67, "
+           "so the closed form's; to round 66 APIC's M dx^2 / 2 added).", "",
            "| engine | shape | n_grid | mu | closed form | a (m/s^2) | error | own k | omega R / v "
            "| omega R (slip: closed) | ok |",
            "|---|---|---|---|---|---|---|---|---|---|---|"]
