@@ -250,17 +250,11 @@ class Constitutive:
         return out
 
     @ti.func
-    def return_mapping(self, p, F):
-        """Return mapping and Kirchhoff stress (docs/mpm.md table). Writes F[p], Jp[p]; returns tau."""
-        b = self.body[p]
-        prm = self.mat[b]
-        mu = prm[P_MU]
-        lam = prm[P_LAM]
-        kind = self.kind[b]
-        if ti.static(not self.multi_kind):
-            kind = ti.static(next(iter(self.kinds)))
+    def elastic_tau(self, kind, F, mu, lam):
+        """The Kirchhoff stress of the hyperelastic models, a function of ``F`` alone (docs/mpm.md table): jelly's
+        fixed corotated, neo-Hookean's; zero for every other ``kind``. Read by :meth:`return_mapping` and the midpoint
+        stress (``mid_stress.py``)."""
         tau = ti.Matrix.zero(self.real, 3, 3)
-        Jp = self.Jp[p]
         eye = ti.Matrix.identity(self.real, 3)
         if ti.static(JELLY in self.kinds):
             if kind == JELLY:
@@ -271,6 +265,21 @@ class Constitutive:
             if kind == NEO_HOOKEAN:
                 J = F.determinant()
                 tau = mu * (F @ F.transpose() - eye) + eye * (lam * ti.log(ti.max(J, 1e-6)))
+        return tau
+
+    @ti.func
+    def return_mapping(self, p, F):
+        """Return mapping and Kirchhoff stress (docs/mpm.md table). Writes F[p], Jp[p]; returns tau."""
+        b = self.body[p]
+        prm = self.mat[b]
+        mu = prm[P_MU]
+        lam = prm[P_LAM]
+        kind = self.kind[b]
+        if ti.static(not self.multi_kind):
+            kind = ti.static(next(iter(self.kinds)))
+        tau = self.elastic_tau(kind, F, mu, lam)   # the other models' below
+        Jp = self.Jp[p]
+        eye = ti.Matrix.identity(self.real, 3)
         if ti.static(SNOW in self.kinds):
             if kind == SNOW:
                 h = ti.exp(prm[P_HARDENING] * (1.0 - Jp))

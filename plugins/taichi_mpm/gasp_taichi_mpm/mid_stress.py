@@ -29,15 +29,6 @@ class MidStress:
         out = tau
         if kind == JELLY or kind == NEO_HOOKEAN:
             prm = self.mat[b]
-            mu, lam = prm[P_MU], prm[P_LAM]
-            eye = ti.Matrix.identity(self.real, 3)
-            H = eye + (ti.static(self.mid_fraction) * self.dt[None]) * C
-            Fm = H @ F
-            J = Fm.determinant()
-            tm = ti.Matrix.zero(self.real, 3, 3)
-            if kind == JELLY:
-                tm = 2.0 * mu * (Fm - self.svd_rotation(Fm)) @ Fm.transpose() + eye * (lam * J * (J - 1.0))
-            else:
-                tm = mu * (Fm @ Fm.transpose() - eye) + eye * (lam * ti.log(ti.max(J, 1e-6)))
-            out = tm @ H.inverse().transpose()
+            H = ti.Matrix.identity(self.real, 3) + (ti.static(self.mid_fraction) * self.dt[None]) * C
+            out = self.elastic_tau(kind, H @ F, prm[P_MU], prm[P_LAM]) @ H.inverse().transpose()
         return out
