@@ -9,7 +9,8 @@ substep (``field_shared``, ``field_clear``, ``field_old``, ``gap_clear``, ``flow
 ``field_box``, ``box_reset``), the box's share of the grid at the end, and a hash of the points (the two settings
 must give the same). Scenes: ``cup`` (``examples/cup_drop.toml`` at 20 m/s, n_grid 96, 47 fragments), ``heap``
 (``scenes_rigid3.heap_setup``: 48 rigid blocks, n_grid 48), ``jelly_on_jelly`` and ``block_on_jelly`` (two bodies,
-``tests/test_soft_on_rigid_rest.py``'s boxes, n_grid 48). The graph: the heap's frames' points, each graph built by
+``tests/test_soft_on_rigid_rest.py``'s boxes, n_grid 48; round 69: ``block_on_jelly_96``, the same at n_grid 96, for
+the rigid collider's node passes over the box, ``rigid_collider.rc_nodes``). The graph: the heap's frames' points, each graph built by
 both and compared.
 
     python benchmarks/studies/field_box_cost.py [--scenes cup,heap,jelly_on_jelly,block_on_jelly] [--frames 6]
@@ -51,7 +52,8 @@ def setup_of(scene: str):
     from gasp_core.testing.scenes_rigid3 import heap_setup
     return {"heap": lambda: heap_setup(48, 4, 3),
             "jelly_on_jelly": lambda: pair_setup(("elastic", "elastic"), 48),
-            "block_on_jelly": lambda: pair_setup(("rigid", "elastic"), 48)}[scene]()
+            "block_on_jelly": lambda: pair_setup(("rigid", "elastic"), 48),
+            "block_on_jelly_96": lambda: pair_setup(("rigid", "elastic"), 96)}[scene]()
 
 
 def box_share(eng) -> float:

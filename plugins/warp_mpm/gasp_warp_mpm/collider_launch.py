@@ -11,7 +11,7 @@ from gasp_core.mpm.rigid import affine_dx
 
 from . import collider_pair as cp
 from . import rigid_collider as rc
-from .field_nodes import shared_threads, sweep_args
+from .field_nodes import sweep_args
 from .rigid_pairs import vec3d
 
 
@@ -59,13 +59,14 @@ def with_mark(eng, Ft, launches: list) -> list:
     walls = eng.wall_mu.shape[0] > 0   # the walls' reach as fields.field_launches gives it
     side = (np.asarray(eng.setup.domain_hi, float) - np.asarray(eng.setup.domain_lo, float)) / eng.dx
     wall_lo, wall_hi = (eng.wall_in, side - eng.wall_in) if walls else (-1.0, np.full(3, 1e30))
-    mark = wp.launch(rc.build_collider(Ft)[0], dim=shared_threads(eng), device=eng.device, record_cmd=True, inputs=[
+    sweep = sweep_args(eng)   # round 69: the launch's size is the sweep's threads (it was shared_threads: equal)
+    mark = wp.launch(rc.build_collider(Ft)[0], dim=sweep[1], device=eng.device, record_cmd=True, inputs=[
         eng.grid_mv, eng.grid_sv, eng.grid_vf, eng.n_grid, eng.ground, Ft(eng.dx ** 3), Ft(wall_lo),
         eng.k.vec3(*[float(c) for c in wall_hi]), Ft(eng.field_touch), eng.ground_touch, eng.flow_touch,
         eng.field_rule % 2, eng.rc_m, eng.rc_n, eng.grid_dv, eng.in_a, eng.rc_bodies, eng.rc_ns, eng.rc_multi,
         int(bool(GROUND_MIRROR)), float(core_collider.BAND * eng.dx),
         eng.k.vec3(*[float(c) for c in eng.setup.domain_lo]), Ft(eng.dx), eng.rc_o, eng.rb_c, eng.rb_R, eng.rc_box,
-        float(NODE_PAD * eng.dx), eng.rc_sb, eng.rc_pt, *sweep_args(eng)])   # round 68: over the box sweep
+        float(NODE_PAD * eng.dx), eng.rc_sb, eng.rc_pt, *sweep])   # round 68: over the box sweep
     if eng.rc_pt.numpy().any():   # round 66: the fields' node masses for the point contact (point_contact.py)
         from .point_contact import mass_launch
         mark = [mark, mass_launch(eng, Ft)]
@@ -88,23 +89,29 @@ def collider_launches(eng, Ft, g2p) -> list:
 
 
 def _collider_launches(eng, Ft, g2p) -> list:
-    _, c_sum, c_body, c_layer, c_solve, c_fsum, c_coulomb, c_apply, c_psum = rc.build_collider(Ft)
-    n, d, ng, ns = eng.n_grid ** 3, eng.device, eng.n_grid, eng.rc_ns
+    _, c_nodes, c_body, c_solve, c_coulomb, c_psum = rc.build_collider(Ft)
+    d, ng, ns = eng.device, eng.n_grid, eng.rc_ns
     lo = eng.k.vec3(*[float(c) for c in eng.setup.domain_lo])
     geo = [eng.rc_m, eng.rc_n, eng.rc_o, eng.in_a, eng.rc_bodies, eng.rb_c, ng, lo, Ft(eng.dx), eng.rc_acc]
+    pairs = [eng.rc_sb, eng.rc_cols, eng.rc_ncol, eng.rc_pacc]   # round 65: Coulomb's per pair (collider_pair.py)
+
+    sweep = sweep_args(eng)
+
+    def nodes(job: int):   # round 69: a node pass over the box sweep (rigid_collider.rc_nodes)
+        return wp.launch(c_nodes, dim=sweep[1], device=d, record_cmd=True, inputs=[
+            eng.grid_v, eng.grid_dv, *geo, *pairs, eng.acc_p, eng.acc_l, rc.REACT, eng.rc_ra, job, *sweep])
+
     solve = [eng.rc_acc, eng.rb_M, eng.rb_I0, eng.rb_R, eng.rc_bodies, affine_dx(eng.dx)]   # round 67: own I
     if eng.rc_multi:   # round 64: V* from each slot body's points (a field may hold several bodies)
         out = [wp.launch(c_psum, dim=eng.n_material, device=d, record_cmd=True, inputs=[
             eng.x, eng.body, eng.p_mass, eng.grid_v, eng.grid_dv, eng.in_a, eng.rc_slot, lo, Ft(eng.inv_dx), ng,
             eng.rc_acc, eng.rc_sb])]
     else:
-        out = [wp.launch(c_sum, dim=n, device=d, record_cmd=True, inputs=[
-            eng.grid_v, eng.grid_dv, eng.rc_m, eng.rc_ra, eng.rc_acc])]
+        out = [nodes(0)]
     out.append(wp.launch(c_body, dim=ns, device=d, record_cmd=True, inputs=[eng.rc_acc, eng.rb_w, eng.rc_bodies]))
     for mode in (0, 1):   # the normal solve, then the tangential one
-        out += [wp.launch(c_layer, dim=n, device=d, record_cmd=True, inputs=[eng.grid_v, eng.grid_dv, *geo, mode]),
+        out += [nodes(1 + mode),
                 wp.launch(c_solve, dim=ns, device=d, record_cmd=True, inputs=[*solve, mode, rc.IMPLICIT])]
-    pairs = [eng.rc_sb, eng.rc_cols, eng.rc_ncol, eng.rc_pacc]   # round 65: Coulomb's per pair (collider_pair.py)
     points = []
     if eng.rc_pt.numpy().any():   # round 66: the round bodies' contact by the soft points (point_contact.py)
         from gasp_core.mpm.rigid_sdf import GRID_PASSES
@@ -115,8 +122,5 @@ def _collider_launches(eng, Ft, g2p) -> list:
             from .point_contact import point_launches
             points = point_launches(eng, Ft, c_solve, c_coulomb)
     return out + [
-        wp.launch(c_fsum, dim=n, device=d, record_cmd=True, inputs=[eng.grid_v, eng.grid_dv, *geo, *pairs]),
-        wp.launch(c_coulomb, dim=ns * eng.rc_ncol, device=d, record_cmd=True, inputs=[
-            eng.rc_pacc, eng.rc_mus, float(rc.FRICTION)]),
-        wp.launch(c_apply, dim=n, device=d, record_cmd=True, inputs=[
-            eng.grid_v, eng.grid_dv, *geo, *pairs, eng.acc_p, eng.acc_l, rc.REACT])] + points + [g2p]
+        nodes(3), wp.launch(c_coulomb, dim=ns * eng.rc_ncol, device=d, record_cmd=True, inputs=[
+            eng.rc_pacc, eng.rc_mus, float(rc.FRICTION)]), nodes(4)] + points + [g2p]

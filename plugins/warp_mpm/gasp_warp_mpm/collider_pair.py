@@ -90,18 +90,20 @@ def build_collider_funcs(Ft):
 
 @functools.cache
 def build_pair(Ft):
-    """``(rc_fsum, rc_coulomb, rc_apply)`` for the scalar type ``Ft`` (module notes)."""
+    """``(fsum_node, rc_coulomb, apply_node)`` for the scalar type ``Ft`` (module notes): ``rc_fsum``'s and
+    ``rc_apply``'s work at one node (``wp.func``; round 69: ``rigid_collider.rc_nodes`` runs them over the box
+    sweep) and the pairs' kernel."""
     vec3 = build_types(Ft)[0]
     field_v, node_x, relative, node_change, pair_of = build_collider_funcs(Ft)
 
-    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def rc_fsum(grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), rc_m: wp.array(dtype=vec3),
-                rc_n: wp.array(dtype=vec3), rc_o: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32),
-                bodies: wp.array(dtype=wp.int32), centre: wp.array(dtype=vec3d), n_grid: int, lo: vec3, dx: Ft,
-                acc: wp.array(dtype=wp.float64), rc_sb: wp.array(dtype=wp.int32), cols: wp.array(dtype=wp.int32),
-                n_cols: int, pacc: wp.array(dtype=wp.float64)):
-        """Each pair's normal impulse ``N = sum m dv_n . n`` (0) and its stuck tangential one (1-3)."""
-        node = wp.tid()
+    @wp.func
+    def fsum_node(node: int, grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), rc_m: wp.array(dtype=vec3),
+                  rc_n: wp.array(dtype=vec3), rc_o: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32),
+                  bodies: wp.array(dtype=wp.int32), centre: wp.array(dtype=vec3d), n_grid: int, lo: vec3, dx: Ft,
+                  acc: wp.array(dtype=wp.float64), rc_sb: wp.array(dtype=wp.int32), cols: wp.array(dtype=wp.int32),
+                  n_cols: int, pacc: wp.array(dtype=wp.float64)):
+        """``rc_fsum`` at ``node``: its pair's normal impulse ``N = sum m dv_n . n`` (0) and its stuck tangential
+        one (1-3)."""
         if rc_m[node][2] > Ft(1.5):
             s = rc_o[node]
             o = NA * s
@@ -131,16 +133,15 @@ def build_pair(Ft):
             pacc[o + 5 + q] = pacc[o + q]   # kept for reading
             pacc[o + q] = wp.float64(0.0)
 
-    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def rc_apply(grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), rc_m: wp.array(dtype=vec3),
-                 rc_n: wp.array(dtype=vec3), rc_o: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32),
-                 bodies: wp.array(dtype=wp.int32), centre: wp.array(dtype=vec3d), n_grid: int, lo: vec3, dx: Ft,
-                 acc: wp.array(dtype=wp.float64), rc_sb: wp.array(dtype=wp.int32), cols: wp.array(dtype=wp.int32),
-                 n_cols: int, pacc: wp.array(dtype=wp.float64), acc_p: wp.array(dtype=vec3d),
-                 acc_l: wp.array(dtype=vec3d), react: int):
-        """At each approaching node the normal change and its pair's scaled tangential one; the reaction to its
-        body."""
-        node = wp.tid()
+    @wp.func
+    def apply_node(node: int, grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3),
+                   rc_m: wp.array(dtype=vec3), rc_n: wp.array(dtype=vec3), rc_o: wp.array(dtype=wp.int32),
+                   in_a: wp.array(dtype=wp.int32), bodies: wp.array(dtype=wp.int32), centre: wp.array(dtype=vec3d),
+                   n_grid: int, lo: vec3, dx: Ft, acc: wp.array(dtype=wp.float64), rc_sb: wp.array(dtype=wp.int32),
+                   cols: wp.array(dtype=wp.int32), n_cols: int, pacc: wp.array(dtype=wp.float64),
+                   acc_p: wp.array(dtype=vec3d), acc_l: wp.array(dtype=vec3d), react: int):
+        """``rc_apply`` at ``node``: if it approaches, the normal change and its pair's scaled tangential one; the
+        reaction to its body."""
         if rc_m[node][2] > Ft(1.5):
             s = rc_o[node]
             o = NA * s
@@ -162,4 +163,4 @@ def build_pair(Ft):
                 wp.atomic_add(acc, o + 7 + ax, J[ax])
             wp.atomic_add(acc, o + 10, m_s)
 
-    return rc_fsum, rc_coulomb, rc_apply
+    return fsum_node, rc_coulomb, apply_node

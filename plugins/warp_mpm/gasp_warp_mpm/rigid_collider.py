@@ -36,8 +36,8 @@ from .touch import build_held
 
 @functools.cache
 def build_collider(Ft):
-    """``(rc_mark, rc_sum, rc_body, rc_layer, rc_solve, rc_fsum, rc_coulomb, rc_apply, rc_psum)`` for the scalar
-    type ``Ft``. It is long because the kernels and their helpers are closures of the scalar type."""
+    """``(rc_mark, rc_nodes, rc_body, rc_solve, rc_coulomb, rc_psum)`` for the scalar type ``Ft`` (round 69:
+    ``rc_nodes`` runs the node passes ``rc_sum``, ``rc_layer``, ``rc_fsum``, ``rc_apply`` over the box sweep). It is long because the kernels and their helpers are closures of the scalar type."""
     vec3, vec4, mat33 = build_types(Ft)
     held_node = build_held(Ft)
     b_normal = build_b_normal(Ft)
@@ -175,10 +175,10 @@ def build_collider(Ft):
                               ground_touch, flow_touch, free, rc_m, rc_n, grid_dv, in_a, bodies, ns, multi, mirror,
                               band, lo, dx, rc_o, centre, rot, boxes, pad, rc_sb, rc_pt)
 
-    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def rc_sum(grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), rc_m: wp.array(dtype=vec3), ra: int,
-               acc: wp.array(dtype=wp.float64)):
-        node = wp.tid()
+    @wp.func
+    def sum_node(node: int, grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), rc_m: wp.array(dtype=vec3),
+                 ra: int, acc: wp.array(dtype=wp.float64)):
+        """``rc_sum`` at ``node``: its rigid field's momentum and mass into the pair's sums (0-3)."""
         m_r = wp.float64(rc_m[node][0])
         if m_r > wp.float64(0.0):
             off = rc_m.shape[0]   # the rigid field's offsets: B's unless it is A
@@ -248,14 +248,13 @@ def build_collider(Ft):
         return mat33d(acc[at], acc[at + 1], acc[at + 2], acc[at + 3], acc[at + 4], acc[at + 5], acc[at + 6],
                       acc[at + 7], acc[at + 8])
 
-    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def rc_layer(grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), rc_m: wp.array(dtype=vec3),
-                 rc_n: wp.array(dtype=vec3), rc_o: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32),
-                 bodies: wp.array(dtype=wp.int32), centre: wp.array(dtype=vec3d), n_grid: int, lo: vec3, dx: Ft,
-                 acc: wp.array(dtype=wp.float64), mode: int):
-        """mode 0: the approaching nodes (marked 2) and the normal system against V*; 1: their tangential system
-        against the normal solve's body; each node into its slot's sums (``rc_o``)."""
-        node = wp.tid()
+    @wp.func
+    def layer_node(node: int, grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), rc_m: wp.array(dtype=vec3),
+                   rc_n: wp.array(dtype=vec3), rc_o: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32),
+                   bodies: wp.array(dtype=wp.int32), centre: wp.array(dtype=vec3d), n_grid: int, lo: vec3, dx: Ft,
+                   acc: wp.array(dtype=wp.float64), mode: int):
+        """``rc_layer`` at ``node``: mode 0: an approaching node (marked 2) and the normal system against V*; 1: its
+        tangential system against the normal solve's body; the node into its slot's sums (``rc_o``)."""
         f = rc_m[node][2]
         if f > Ft(0.0):
             o = NA * rc_o[node]
@@ -318,8 +317,40 @@ def build_collider(Ft):
         for q in range(42):
             acc[o + 20 + q] = wp.float64(0.0)
 
-    rc_fsum, rc_coulomb, rc_apply = build_pair(Ft)
-    return rc_mark, rc_sum, rc_body, rc_layer, rc_solve, rc_fsum, rc_coulomb, rc_apply, rc_psum
+    fsum_node, rc_coulomb, apply_node = build_pair(Ft)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def rc_nodes(grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), rc_m: wp.array(dtype=vec3),
+                 rc_n: wp.array(dtype=vec3), rc_o: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32),
+                 bodies: wp.array(dtype=wp.int32), centre: wp.array(dtype=vec3d), n_grid: int, lo: vec3, dx: Ft,
+                 acc: wp.array(dtype=wp.float64), rc_sb: wp.array(dtype=wp.int32), cols: wp.array(dtype=wp.int32),
+                 n_cols: int, pacc: wp.array(dtype=wp.float64), acc_p: wp.array(dtype=vec3d),
+                 acc_l: wp.array(dtype=vec3d), react: int, ra: int, job: int, box: wp.array(dtype=wp.int32),
+                 threads: int, along: int):
+        """Round 69: the collider's node passes over the box sweep (as ``rc_mark``: outside it no node is marked and
+        none holds rigid mass): ``job`` 0 ``rc_sum``, 1 and 2 ``rc_layer``'s modes 0 and 1, 3 ``rc_fsum``, 4
+        ``rc_apply``. On the CPU the nodes in the whole grid's order (the same sums, the same bits)."""
+        n = box_units(box, along)
+        run = (n + threads - 1) / threads
+        for r in range(run):
+            q = box_q(wp.tid(), r, run, threads, along)
+            if q < n:
+                first = unit_first(box, q, n_grid, along)
+                for node in range(first, first + unit_len(box, along)):
+                    m = rc_m[node]   # the unmarked node skipped here, not by the call (its arguments' copies)
+                    if job == 0 and m[0] > Ft(0.0):
+                        sum_node(node, grid_v, grid_dv, rc_m, ra, acc)
+                    elif job > 0 and job < 3 and m[2] > Ft(0.0):
+                        layer_node(node, grid_v, grid_dv, rc_m, rc_n, rc_o, in_a, bodies, centre, n_grid, lo, dx,
+                                   acc, job - 1)
+                    elif job == 3 and m[2] > Ft(1.5):
+                        fsum_node(node, grid_v, grid_dv, rc_m, rc_n, rc_o, in_a, bodies, centre, n_grid, lo, dx,
+                                  acc, rc_sb, cols, n_cols, pacc)
+                    elif job == 4 and m[2] > Ft(1.5):
+                        apply_node(node, grid_v, grid_dv, rc_m, rc_n, rc_o, in_a, bodies, centre, n_grid, lo, dx,
+                                   acc, rc_sb, cols, n_cols, pacc, acc_p, acc_l, react)
+
+    return rc_mark, rc_nodes, rc_body, rc_solve, rc_coulomb, rc_psum
 
 
 #: Deliberately broken variants for the checks (tests/test_soft_on_rigid_rest.py): REACT 0 gives the body no
