@@ -7,7 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from gasp_core.seam import engines
+from gasp_core.errors import EngineDivergence
+from gasp_core.seam import build_engine, engines, get_engine
 
 G = 9.81
 INSTALLED = engines()
@@ -47,6 +48,34 @@ def coulomb_problem(theta: float, mu: float, figure: float, tol: float, stick_mm
     if not figure < stick_mm:
         return f"{theta} deg, mu {mu}: it moved {figure:.3f} mm in {stick_t:g} s{after} (sticks: under {stick_mm} mm)"
     return None
+
+
+def centroids(engine: str, s, frames: int) -> np.ndarray | None:
+    """The centroid of ``s``'s points per frame on ``engine`` (frame 0 the start), shape ``(frames + 1, 3)`` (m); None
+    where the engine stops on a divergence (a body that left the box: no figure meets Coulomb)."""
+    e = build_engine(get_engine(engine), s)
+    out = [np.asarray(s.x, np.float64).mean(axis=0)]
+    try:
+        for _ in range(frames):
+            e.step_frame()
+            out.append(e.positions().astype(np.float64).mean(axis=0))
+    except EngineDivergence:
+        return None
+    finally:
+        e.close()
+    return np.array(out)
+
+
+def coulomb_figure(c: np.ndarray, theta: float, mu: float, fps: float, slide_from: float, along=(1.0, 0.0, 0.0),
+                   settle: int = 0) -> float:
+    """What :func:`coulomb_problem` reads from the centroids ``c`` (frames + 1, 3): where the block slides, its
+    acceleration along the unit vector ``along`` (m/s^2; twice the leading coefficient of a parabola fitted to its
+    travel from ``slide_from`` s); where it sticks, its travel (mm) from frame ``settle`` to the last."""
+    if slides(theta, mu):
+        t = np.arange(len(c)) / fps
+        sel = t >= slide_from
+        return 2.0 * float(np.polyfit(t[sel], (c[sel] - c[0]) @ np.asarray(along, float), 2)[0])
+    return 1000.0 * float(np.linalg.norm(c[-1] - c[settle]))
 
 
 def rest_brake(c: np.ndarray, fps: float, v_rest: float = 0.1, horizontal: bool = True) -> np.ndarray:

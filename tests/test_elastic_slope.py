@@ -39,12 +39,10 @@ import math
 
 import numpy as np
 import pytest
-from slopes import ENGINES, G, closed_form, coulomb_problem, slides
+from slopes import ENGINES, G, centroids, closed_form, coulomb_figure, coulomb_problem, slides
 from test_rigid_slope import (DEFAULT_CASES, DX, FPS, GROUND, MUS, N_GRID, SIDE, SLIDE_FROM, SLIDE_T, STICK_MM,
                               THETAS, _friction, _rest_brake)
 
-from gasp_core.errors import EngineDivergence
-from gasp_core.seam import build_engine, get_engine
 from gasp_core.seam.setup import Boundary, Material
 from gasp_core.testing.helpers import box_points, make_setup
 
@@ -77,22 +75,11 @@ def measure(engine: str, theta: float, mu: float, contact: str, spoil=None, outp
     s = block_setup(theta, mu, contact)
     if spoil is not None:
         spoil(s)
-    e = build_engine(get_engine(engine), s)
-    c = [np.asarray(s.x, np.float64).mean(axis=0)]
-    try:
-        for _ in range(round((SLIDE_T if slides(theta, mu) else SETTLE_T + STICK_T) * FPS)):
-            e.step_frame()
-            c.append(e.positions().astype(np.float64).mean(axis=0))
-    except EngineDivergence:   # it slid out of the box: no figure meets Coulomb
+    c = centroids(engine, s, round((SLIDE_T if slides(theta, mu) else SETTLE_T + STICK_T) * FPS))
+    if c is None:   # it slid out of the box
         return math.inf
-    c = np.array(c)
-    if output is not None:
-        c = output(c)
-    if slides(theta, mu):
-        t = np.arange(len(c)) / FPS
-        sel = t >= SLIDE_FROM
-        return 2.0 * float(np.polyfit(t[sel], c[sel, 0], 2)[0])
-    return 1000.0 * float(np.linalg.norm(c[-1] - c[round(SETTLE_T * FPS)]))
+    return coulomb_figure(c if output is None else output(c), theta, mu, FPS, SLIDE_FROM,
+                          settle=round(SETTLE_T * FPS))
 
 
 def check(theta: float, mu: float, figure: float) -> str | None:

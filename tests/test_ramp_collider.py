@@ -29,11 +29,9 @@ import numpy as np
 import pytest
 
 from gasp_core.colliders.sdf import SDF_SPACING, collider_from_triangles
-from gasp_core.errors import EngineDivergence
-from gasp_core.seam import build_engine, get_engine
 from gasp_core.seam.setup import Material
 from gasp_core.testing.helpers import box_points, make_setup
-from slopes import ENGINES, closed_form, coulomb_problem, rest_brake, slides
+from slopes import ENGINES, centroids, closed_form, coulomb_figure, coulomb_problem, rest_brake, slides
 
 pytest.importorskip("trimesh", reason="mesh colliders need trimesh (the [mesh] extra)")
 
@@ -99,22 +97,10 @@ def measure(engine: str, theta: float, mu: float, spoil=None, output=None) -> fl
     s = ramp_setup(theta, mu)
     if spoil is not None:
         spoil(s)
-    e = build_engine(get_engine(engine), s)
-    c = [np.asarray(s.x, np.float64).mean(axis=0)]
-    try:
-        for _ in range(round((SLIDE_T if slides(theta, mu) else STICK_T) * FPS)):
-            e.step_frame()
-            c.append(e.positions().astype(np.float64).mean(axis=0))
-    except EngineDivergence:   # it left the box: no figure meets Coulomb
+    c = centroids(engine, s, round((SLIDE_T if slides(theta, mu) else STICK_T) * FPS))
+    if c is None:   # it left the box
         return math.inf
-    c = np.array(c)
-    if output is not None:
-        c = output(c)
-    if slides(theta, mu):
-        t = np.arange(len(c)) / FPS
-        sel = t >= SLIDE_FROM
-        return 2.0 * float(np.polyfit(t[sel], (c[sel] - c[0]) @ ramp_frame(theta)[1], 2)[0])
-    return 1000.0 * float(np.linalg.norm(c[-1] - c[0]))
+    return coulomb_figure(c if output is None else output(c), theta, mu, FPS, SLIDE_FROM, ramp_frame(theta)[1])
 
 
 def check(theta: float, mu: float, figure: float) -> str | None:

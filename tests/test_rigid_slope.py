@@ -31,11 +31,10 @@ import math
 import numpy as np
 import pytest
 
-from gasp_core.errors import EngineDivergence
-from gasp_core.seam import build_engine, get_engine
 from gasp_core.seam.setup import Boundary, Material
 from gasp_core.testing.helpers import box_points, make_setup
-from slopes import ENGINES, G, closed_form, coulomb_problem, rest_brake, slides  # noqa: F401 (re-exported)
+from slopes import (ENGINES, G, centroids, closed_form, coulomb_figure, coulomb_problem, rest_brake,  # noqa: F401
+                    slides)
 
 N_GRID = 24
 SIDE = 0.6
@@ -66,33 +65,16 @@ def block_setup(theta: float, mu: float):
     return s
 
 
-def centroids(engine: str, s, seconds: float) -> np.ndarray:
-    """The centroid per frame (frame 0 the start), shape (frames + 1, 3)."""
-    e = build_engine(get_engine(engine), s)
-    out = [np.asarray(s.x, np.float64).mean(axis=0)]
-    for _ in range(round(seconds * FPS)):
-        e.step_frame()
-        out.append(e.positions().astype(np.float64).mean(axis=0))
-    return np.array(out)
-
-
 def measure(engine: str, theta: float, mu: float, spoil=None, output=None) -> float:
     """The measured figure: the acceleration along the slope (m/s^2) where it slides, the centroid's travel (mm) in
     ``STICK_T`` where it sticks. ``spoil(setup)`` and ``output(centroids)`` break the engine on purpose."""
     s = block_setup(theta, mu)
     if spoil is not None:
         spoil(s)
-    try:
-        c = centroids(engine, s, SLIDE_T if slides(theta, mu) else STICK_T)
-    except EngineDivergence:   # it slid out of the box: no figure meets Coulomb
+    c = centroids(engine, s, round((SLIDE_T if slides(theta, mu) else STICK_T) * FPS))
+    if c is None:   # it slid out of the box
         return math.inf
-    if output is not None:
-        c = output(c)
-    if slides(theta, mu):
-        t = np.arange(len(c)) / FPS
-        sel = t >= SLIDE_FROM
-        return 2.0 * float(np.polyfit(t[sel], c[sel, 0], 2)[0])
-    return 1000.0 * float(np.linalg.norm(c[-1] - c[0]))
+    return coulomb_figure(c if output is None else output(c), theta, mu, FPS, SLIDE_FROM)
 
 
 def check(theta: float, mu: float, figure: float) -> str | None:
