@@ -16,9 +16,11 @@ the engine's points (warp_mpm; the rigid ball's points move as one body):
 - ``c_rr``: the rolling resistance coefficient the ball's loss is, ``F / (M g)`` with ``F`` its mechanical energy's
   drop over the distance its centre went.
 
-Cases: ``--contact default`` (the rigid collider, the slab's normals) and ``point4`` (``rigid_sdf.POINT_CONTACT``,
-``GRID_PASSES 4``: round 67's constraint of the grid); ``--E`` the slab's Young's modulus (``rigid``: the same slab
-rigid, the control); ``--mu``; ``--n-grid``; ``--ppc`` the slab's points per cell along an axis (2: the scene's).
+Cases: ``--contact default`` (the rigid collider, the slab's normals), ``point0`` (``rigid_sdf.POINT_CONTACT``, round
+66's contact per point) and ``point4`` (``GRID_PASSES 4``: round 67's constraint of the grid), each with ``+NAME=VALUE``
+constants of ``rigid_sdf`` (``point4+PATCH=0.25``: round 67's patches); ``--E`` the slab's Young's modulus
+(``rigid``: the same slab rigid, the control); ``--mu``; ``--n-grid``; ``--ppc`` the slab's points per cell along an
+axis (2: the scene's); ``--v0`` the ball's speed; ``--radius``; ``--seat`` the ball set on the slab's top points.
 
     python benchmarks/studies/ball_roll_energy.py --contact default point4 --E rigid 1e5 1e6 1e7 --mu 0 0.5
 
@@ -83,7 +85,8 @@ class Budget:
 
     def slab_ep(self, p, k):
         m = self.m[k]
-        return 0.5 * float(m @ (p["v"][k] ** 2).sum(1)) + 0.5 * float(m @ (p["C"][k] ** 2).sum((1, 2))) * self.dx ** 2 / 4
+        aff = 0.5 * float(m @ (p["C"][k] ** 2).sum((1, 2))) * self.dx ** 2 / 4
+        return 0.5 * float(m @ (p["v"][k] ** 2).sum(1)) + aff
 
     def energies(self) -> dict:
         p = self.points()
@@ -120,19 +123,20 @@ class Budget:
 
 
 def run(contact: str, E, mu: float, n_grid: int = 32, R: float = 0.03, T: float = 0.2, ppc: int = 2,
-        p2g: bool = True, v0: float = 0.5) -> dict:
+        p2g: bool = True, v0: float = 0.5, seat: bool = False, spin: float = 1.0) -> dict:
     """One case's budget (module notes): energies at the first frame and the last (J), the sums, ``c_rr``."""
     import gasp_core.mpm.rigid_sdf as sdf
     from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import get_engine
-    keep = (sdf.POINT_CONTACT, sdf.GRID_PASSES)
-    if contact == "point4":
-        sdf.POINT_CONTACT, sdf.GRID_PASSES = True, 4
-    elif contact == "point0":
-        sdf.POINT_CONTACT, sdf.GRID_PASSES = True, 0
+    name, *sets = contact.split("+")
+    consts = {"POINT_CONTACT": name != "default"} | ({"GRID_PASSES": int(name[5:])} if name != "default" else {})
+    consts |= {k: type(getattr(sdf, k))(float(v)) for k, v in (kv.split("=") for kv in sets)}
+    keep = {k: getattr(sdf, k) for k in consts}
+    for k, v in consts.items():
+        setattr(sdf, k, v)
     try:
         slab = "rigid" if E == "rigid" else "elastic"
-        s = with_ppc(roll_setup(n_grid, R, v0, mu, slab, 1.0, E=1.0e5 if E == "rigid" else float(E)), ppc)
+        s = with_ppc(roll_setup(n_grid, R, v0, mu, slab, spin, seat=seat, E=1.0e5 if E == "rigid" else float(E)), ppc)
         t0 = time.time()
         e = build_engine(get_engine("warp_mpm"), s)
         bud = Budget(s, e, s.materials[1])
@@ -150,8 +154,10 @@ def run(contact: str, E, mu: float, n_grid: int = 32, R: float = 0.03, T: float 
         dt = float(e.dt)
         e.close()
     finally:
-        sdf.POINT_CONTACT, sdf.GRID_PASSES = keep
+        for k, v in keep.items():
+            setattr(sdf, k, v)
     return {"contact": contact, "E": E, "mu": mu, "n_grid": n_grid, "R": R, "T": T, "ppc": ppc, "dt": dt, "v0": v0,
+            "seat": seat, "spin": spin,
             "rows": rows, "seconds": time.time() - t0}
 
 
@@ -182,8 +188,26 @@ def row(r: dict, t0: float | None = None) -> str:
             f"{pct(b['lost'])} | {pct(b['p2g'])} | {b['c_rr']:.4f} | {r['seconds']:.0f} |")
 
 
-HEAD = ("| contact | n_grid | ppc | R (cm) | slab E (Pa) | mu | from (s) | v (m/s) | K0 (mJ) | ball trans | ball spin | ball mgz | "
-        "slab kinetic | slab stored | slab mgz + ground springs | lost | of it slab P2G | c_rr | s |\n"
+def summary(runs: list[dict]) -> list[str]:
+    """The docs' table: per run, the whole (from the state given to ``T``) and the steady window (0.1 s to ``T``):
+    the ball's speed, what was lost and the slab's P2G share (% of the ball's kinetic energy at the window's start),
+    the ball's drop in height (% likewise) and ``c_rr``."""
+    out = ["| contact | n_grid | ppc | R (cm) | slab E (Pa) | mu | v0 | seat | whole: v end, lost, of it slab P2G, ball "
+           "mgz | steady (0.1-0.2 s): v, lost, of it slab P2G, c_rr |", "|" + "---|" * 10]
+    for r in runs:
+        w, s = budget(r, 0.0), budget(r, 0.1)
+        pc = lambda b, x: f"{100 * x / b['K0']:.1f}"   # noqa: E731
+        E = "rigid" if r["E"] == "rigid" else f"{float(r['E']):.0e}"
+        out.append(f"| {r['contact']} | {r['n_grid']} | {r['ppc']} | {100 * r['R']:g} | {E} | {r['mu']:g} | "
+                   f"{r.get('v0', 0.5):g} | {'yes' if r.get('seat') else ''} | {w['v'][1]:.3f}, {pc(w, w['lost'])} %, "
+                   f"{pc(w, w['p2g'])} %, {pc(w, w['d']['ball_pe'])} % | {s['v'][0]:.3f} -> {s['v'][1]:.3f}, "
+                   f"{pc(s, s['lost'])} %, {pc(s, s['p2g'])} %, {s['c_rr']:.4f} |")
+    return out
+
+
+HEAD = ("| contact | n_grid | ppc | R (cm) | slab E (Pa) | mu | from (s) | v (m/s) | K0 (mJ) | ball trans | "
+        "ball spin | "
+        "ball mgz | slab kinetic | slab stored | slab mgz + ground springs | lost | of it slab P2G | c_rr | s |\n"
         "|" + "---|" * 19)
 
 
@@ -199,9 +223,15 @@ def main(argv=None) -> int:
     ap.add_argument("--v0", type=float, nargs="+", default=[0.5], help="the ball's rolling speed at the start (m/s)")
     ap.add_argument("--windows", type=float, nargs="*", default=[0.0, 0.1],
                     help="budgets also from these times (s) to T (the start's settle left out)")
+    ap.add_argument("--seat", action="store_true", help="the ball set with its point contact's skin on the slab's top "
+                    "points (ball_roll_soft's --seat: no drop at the start)")
     ap.add_argument("--no-p2g", action="store_true", help="skip the slab's P2G loss (faster at high E)")
     ap.add_argument("--json", default=None, help="append each case's budget to this JSON-lines file")
+    ap.add_argument("--report", default=None, help="print the docs' table of the runs in this JSON-lines file and stop")
     a = ap.parse_args(argv)
+    if a.report:
+        print("\n".join(summary([json.loads(q) for q in Path(a.report).read_text().splitlines() if q.strip()])))
+        return 0
     print("Changes from the first frame to the last, % of the ball's kinetic energy K0 at the first frame "
           "(lost: the drop of both bodies' sum; c_rr: the ball's loss as a rolling resistance)\n")
     print(HEAD)
@@ -212,7 +242,7 @@ def main(argv=None) -> int:
                     for E in a.E:
                         for mu in a.mu:
                             for v0 in a.v0:
-                                r = run(contact, E, mu, n, R, a.T, ppc, not a.no_p2g, v0)
+                                r = run(contact, E, mu, n, R, a.T, ppc, not a.no_p2g, v0, a.seat)
                                 for t0 in [None] + a.windows:
                                     print(row(r, t0), flush=True)
                                 if a.json:
