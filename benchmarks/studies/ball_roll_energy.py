@@ -18,7 +18,8 @@ the engine's points (warp_mpm; the rigid ball's points move as one body):
 
 Cases: ``--contact default`` (the rigid collider, the slab's normals), ``point0`` (``rigid_sdf.POINT_CONTACT``, round
 66's contact per point) and ``point4`` (``GRID_PASSES 4``: round 67's constraint of the grid), each with ``+NAME=VALUE``
-constants of ``rigid_sdf`` (``point4+PATCH=0.25``: round 67's patches); ``--E`` the slab's Young's modulus
+constants of ``rigid_sdf`` (``point4+PATCH=0.25``: round 67's patches; ``+EXACT_SPHERE=1`` the probe
+:func:`exact_sphere`); ``--E`` the slab's Young's modulus
 (``rigid``: the same slab rigid, the control); ``--mu``; ``--n-grid``; ``--ppc`` the slab's points per cell along an
 axis (2: the scene's); ``--v0`` the ball's speed; ``--radius``; ``--seat`` the ball set on the slab's top points.
 
@@ -57,6 +58,22 @@ def with_ppc(s, ppc: int):
                      C=np.concatenate([np.asarray(s.C)[keep], np.zeros((len(xs), 3, 3))]),
                      p_vol=np.concatenate([np.asarray(s.p_vol)[keep], np.full(len(xs), pvs)]),
                      body_id=np.concatenate([body[keep], np.ones(len(xs), int)]))
+
+
+def exact_sphere(body_sdf):
+    """A probe (round 69): ``rigid_sdf.body_sdf`` with its field replaced by an exact sphere's, centred on the body's
+    points, of radius their farthest plus half their spacing (the lattice's own grid kept)."""
+    def sdf(X0, dx):
+        from gasp_core.mpm.rigid_sdf import point_spacing
+        out = body_sdf(X0, dx)
+        X0 = np.asarray(X0, float)
+        R = float(np.linalg.norm(X0, axis=1).max()) + 0.5 * point_spacing(X0)
+        dims = out["phi"].shape
+        axes = [out["origin"][a] + out["h"] * np.arange(dims[a]) for a in range(3)]
+        g = np.stack(np.meshgrid(*axes, indexing="ij"), -1)
+        r = np.maximum(np.linalg.norm(g, axis=-1), 1e-12)
+        return {**out, "phi": r - R, "grad": g / r[..., None]}
+    return sdf
 
 
 class Budget:
@@ -130,8 +147,11 @@ def run(contact: str, E, mu: float, n_grid: int = 32, R: float = 0.03, T: float 
     from gasp_core.seam.plugins import get_engine
     name, *sets = contact.split("+")
     consts = {"POINT_CONTACT": name != "default"} | ({"GRID_PASSES": int(name[5:])} if name != "default" else {})
-    consts |= {k: type(getattr(sdf, k))(float(v)) for k, v in (kv.split("=") for kv in sets)}
-    keep = {k: getattr(sdf, k) for k in consts}
+    consts |= {k: type(getattr(sdf, k, 0))(float(v)) for k, v in (kv.split("=") for kv in sets)}
+    exact = consts.pop("EXACT_SPHERE", 0)   # the probe: the ball's shape an exact sphere (exact_sphere)
+    keep = {k: getattr(sdf, k) for k in consts} | {"body_sdf": sdf.body_sdf}
+    if exact:
+        sdf.body_sdf = exact_sphere(sdf.body_sdf)
     for k, v in consts.items():
         setattr(sdf, k, v)
     try:
