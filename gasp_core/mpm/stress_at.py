@@ -24,7 +24,7 @@ from __future__ import annotations
 from gasp_core.seam.options import Option
 
 #: The stress's point in the increment: the start (the default, symplectic Euler) or the midpoint (module notes).
-STRESS_ATS = ("start", "mid")
+STRESS_ATS = ("start", "mid", "trapezoid")
 
 STRESS_AT = Option(
     "stress_at", "start", "where P2G takes the hyperelastic stress (jelly, neo-Hookean): 'start', of F (symplectic "
@@ -33,3 +33,13 @@ STRESS_AT = Option(
     "the energy brought with 'start', 0.18 % with 'mid', which damps it instead: 16 % of it lost by the step; "
     "gasp_core.mpm.stress_at, docs/fracture.md round 68)", kind="str",
     choices=STRESS_ATS)
+
+
+def mid_flag(stress_at: str, engine: str) -> bool:
+    """Whether an engine without the trapezoid (taichi_mpm, round 69) takes the midpoint stress; it refuses
+    ``"trapezoid"`` (``gasp_core.seam.EngineError``) rather than run another stress under that name."""
+    if stress_at == "trapezoid":
+        from gasp_core.seam import EngineError
+        raise EngineError(f"engine '{engine}': stress_at = \"trapezoid\" is built on warp_mpm only (round 69); "
+                          "use \"start\" or \"mid\"")
+    return stress_at == "mid"

@@ -9,6 +9,13 @@ import taichi as ti
 from gasp_core.mpm.materials import JELLY, NEO_HOOKEAN, P_LAM, P_MU
 
 
+def mid_flag(stress_at) -> bool:
+    """The solver's ``mid_stress`` from the option ``stress_at`` (or a bool): "trapezoid" (round 69, warp_mpm only) is
+    refused (``gasp_core.mpm.stress_at.mid_flag``) rather than run another stress under its name."""
+    from gasp_core.mpm.stress_at import mid_flag as core_flag
+    return bool(stress_at) if isinstance(stress_at, bool) else core_flag(stress_at, "taichi_mpm")
+
+
 class MidStress:
     """:meth:`mid_tau`, read by :meth:`gasp_taichi_mpm.transfers.Transfers.p2g_prep` where ``mid_stress`` is set."""
 

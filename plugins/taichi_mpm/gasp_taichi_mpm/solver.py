@@ -51,7 +51,7 @@ from .contact import Contact
 from .fields import Fields
 from .forces import Forces, count_set_boxes
 from .grid import GridUpdate
-from .mid_stress import MidStress
+from .mid_stress import MidStress, mid_flag
 from .rigid import Rigid
 from .rigid_hold import RigidHold
 from .rigid_collider import RigidCollider
@@ -127,7 +127,7 @@ class MPMSolver(MidStress, RigidCollider, Transfers, ColouredP2G, TileP2G, Fixed
                  rigid_frames=None, contact_reach=None, body_mass=None, n_colc=0, planes=None, mixed=None, fields=None,
                  hold=None, box_hold=None, gpu=False, tiles=False, deterministic=False, sort_every=1, touch_speed=0.0,
                  mid_stress=False):
-        n, self.touch_speed_in, self.mid_stress = len(x), float(touch_speed), bool(mid_stress)   # mid_stress.py
+        n, self.touch_speed_in, self.mid_stress = len(x), float(touch_speed), mid_flag(mid_stress)   # mid_stress.py
         self.n = n
         self.n_material = n if n_material is None else int(n_material)
         self.has_passive = self.n_material < n
