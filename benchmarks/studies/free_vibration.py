@@ -10,8 +10,14 @@ the energy falls as ``exp(-beta omega^2 t)``; measured against "start" (the tran
 ``kept_mid / kept_start`` against ``exp(-(dt/2) omega^2 (PERIODS - 1) T)``, ``omega`` the run's own (measured from the
 zero crossings of the left half's mean velocity under "start").
 
+``--ledger``: instead, each scheme's offset in ``benchmarks/energy_ledger.py``'s elastic term on the same bar over
+two periods: the worst ``|elastic + c dpsi|`` (% of ``E0``; ``dpsi`` the substep's stored energy change) for ``c`` 0,
+1/2 (the pairing of ``energy_ledger_family.py``'s "paired gain": the start's half step) and 1 (the trapezoid's whole
+step: ``F`` advances by the substep's mean gradient at the next P2G, so the stored energy lags the stress's work by one
+increment).
+
 Run: ``python benchmarks/studies/free_vibration.py [--engines warp_mpm,taichi_mpm] [--cfl 0.4,0.8]
-[--at start,mid,trapezoid] [--n-grid 32] [--passes 3]`` (one JSON line a run, then a markdown table).
+[--at start,mid,trapezoid] [--n-grid 32] [--passes 1,3] [--ledger]`` (one JSON line a run, then a markdown table).
 """
 from __future__ import annotations
 
@@ -30,7 +36,7 @@ L, H, E, RHO, V = 0.2, 0.04, 1.0e5, 1000.0, 0.1
 PERIODS = 4
 
 
-def bar_setup(n_grid: int, cfl: float, at: str):
+def bar_setup(n_grid: int, cfl: float, at: str, passes: int = 1):
     from gasp_core.seam.setup import Material
     from gasp_core.testing.helpers import make_setup
     lo, hi = (-0.15, -0.15, -0.15), (0.15, 0.15, 0.15)
@@ -41,7 +47,8 @@ def bar_setup(n_grid: int, cfl: float, at: str):
     v[:, 0] = V * np.cos(math.pi * (g[:, 0] + L / 2) / L)
     return make_setup(g, np.full(len(g), s ** 3), Material("jelly", E=E, nu=0.0, rho=RHO), v=v, gravity=(0, 0, 0),
                       lo=lo, hi=hi, n_grid=n_grid, frame_dt=1 / 30,
-                      options={"cfl": cfl, "transfer_damping": "step", "stress_at": at})
+                      options={"cfl": cfl, "transfer_damping": "step", "stress_at": at,
+                               **({"stress_passes": passes} if at == "trapezoid" else {})})
 
 
 def energy(pts: dict, mu: float) -> float:
@@ -55,12 +62,10 @@ def run(engine: str, n_grid: int, cfl: float, at: str, passes: int) -> dict:
     from energy_ledger import steps_of
     from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import engines
-    setup = bar_setup(n_grid, cfl, at)
+    setup = bar_setup(n_grid, cfl, at, passes)
     cls = engines()[engine]
     t0 = time.time()
     e = build_engine(cls, setup)
-    if hasattr(e, "trapezoid_passes"):
-        e.trapezoid_passes = passes
     try:
         st = steps_of(e)
         dt = float(e.dt)
@@ -92,14 +97,49 @@ def run(engine: str, n_grid: int, cfl: float, at: str, passes: int) -> dict:
             "kept": kept, "E0": float(Es[0]), "seconds": round(time.time() - t0, 1)}
 
 
+def offsets(engine: str, n_grid: int, cfl: float, at: str, passes: int) -> dict:
+    """The worst ``|elastic + c dpsi|`` of the ledger over two periods (module notes), % of ``E0``."""
+    from energy_ledger import Ledger, total
+    from gasp_core.seam.build import build_engine
+    from gasp_core.seam.plugins import engines
+    setup = bar_setup(n_grid, cfl, at, passes)
+    e = build_engine(engines()[engine], setup)
+    try:
+        led = Ledger(setup, e, setup.materials[0], None)
+        E0, psi, el = total(led.E), led.E["psi"], 0.0
+        worst = {0.0: 0.0, 0.5: 0.0, 1.0: 0.0}
+        for _ in range(2 * int(round(2 * L / math.sqrt(E / RHO) / led.dt))):
+            r = led.step()
+            for c in worst:
+                worst[c] = max(worst[c], abs(el + c * (r["psi"] - psi)))
+            psi, el = r["psi"], el + r["elastic"]
+    finally:
+        e.close()
+    return {"engine": engine, "cfl": cfl, "stress_at": at, "passes": passes if at == "trapezoid" else None,
+            **{f"c={c:g}": round(100 * w / E0, 3) for c, w in worst.items()}, "elastic_end": round(100 * el / E0, 3)}
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--engines", default="warp_mpm")
     ap.add_argument("--cfl", default="0.4,0.8")
     ap.add_argument("--at", default="start,mid,trapezoid")
     ap.add_argument("--n-grid", type=int, default=32)
-    ap.add_argument("--passes", default="3", help="the trapezoid's passes a substep (comma list)")
+    ap.add_argument("--passes", default="1,3", help="the trapezoid's passes a substep (comma list)")
+    ap.add_argument("--ledger", action="store_true", help="the ledger's offsets instead (module notes)")
     a = ap.parse_args(argv)
+    if a.ledger:
+        print("| engine | cfl | stress_at | worst, c 0 | c 1/2 | c 1 | elastic term at the end |")
+        print("|---|---|---|---|---|---|---|")
+        for engine in a.engines.split(","):
+            for cfl in (float(c) for c in a.cfl.split(",")):
+                for at in a.at.split(","):
+                    for passes in ([int(q) for q in a.passes.split(",")] if at == "trapezoid" else [0]):
+                        r = offsets(engine, a.n_grid, cfl, at, passes)
+                        name = at + (f" ({passes} passes)" if r["passes"] else "")
+                        print(f"| {engine} | {cfl} | {name} | {r['c=0']} | {r['c=0.5']} | {r['c=1']} | "
+                              f"{r['elastic_end']} |", flush=True)
+        return 0
     rows = []
     for engine in a.engines.split(","):
         for cfl in (float(c) for c in a.cfl.split(",")):

@@ -26,6 +26,9 @@ from gasp_core.seam.options import Option
 #: The stress's point in the increment: the start (the default, symplectic Euler) or the midpoint (module notes).
 STRESS_ATS = ("start", "mid", "trapezoid")
 
+#: The most passes a substep under "trapezoid" (round 69: converged at 3 on the jelly donut).
+MAX_STRESS_PASSES = 8
+
 STRESS_AT = Option(
     "stress_at", "start", "where P2G takes the hyperelastic stress (jelly, neo-Hookean): 'start', of F (symplectic "
     "Euler, the default), or 'mid', the work-conjugate stress of F_mid = (I + dt/2 C) F, whose work is the stored "
@@ -33,6 +36,12 @@ STRESS_AT = Option(
     "the energy brought with 'start', 0.18 % with 'mid', which damps it instead: 16 % of it lost by the step; "
     "gasp_core.mpm.stress_at, docs/fracture.md round 68)", kind="str",
     choices=STRESS_ATS)
+
+STRESS_PASSES = Option(
+    "stress_passes", 1, "P2G-grid-G2P passes a substep under stress_at = 'trapezoid' (warp_mpm; the last the real "
+    "one, each before it a trial substep whose end velocity gradient the next pass's midpoint takes; 1: the start's "
+    "gradient as the guess, no trial; a pass costs about a substep: docs/fracture.md round 69)", kind="int", lo=1,
+    hi=MAX_STRESS_PASSES)
 
 
 def mid_flag(stress_at: str, engine: str) -> bool:

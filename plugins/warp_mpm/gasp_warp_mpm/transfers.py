@@ -114,7 +114,7 @@ def build_p2g(Ft):
         grid_mf: wp.array(dtype=Ft), flows: wp.array(dtype=wp.int32), grid_sv: wp.array(dtype=vec4),
         grid_vf: wp.array(dtype=Ft), in_a: wp.array(dtype=wp.int32), fixed: wp.array(dtype=wp.int32), rule: int,
         p_pic: wp.array(dtype=wp.int32), body_mu: wp.array(dtype=Ft), C_prev: wp.array(dtype=mat33),
-        C_guess: wp.array(dtype=mat33), C_start: wp.array(dtype=mat33),
+        C_guess: wp.array(dtype=mat33),
     ):
         # F by C, return mapping, stress (docs/mpm.md), the scatter (wind: grid_g; flip: the APIC momentum alone to
         # grid_mv0, gasp_core.mpm.transfer); particle contact (planes: grounds, walls; colc: colliders): the normal
@@ -135,11 +135,10 @@ def build_p2g(Ft):
         fx = X - vec3(b0, b1, b2)
         W = weights(fx)
         Cp = C[p]
-        Cu = trap_gradient(Cp, p, rule, body, mat_kind, C_prev, C_start)   # Cp but under stress_at "trapezoid" (trapezoid.py)
+        Cu = trap_gradient(Cp, p, rule, body, mat_kind, C_prev)   # Cp but under stress_at "trapezoid" (trapezoid.py)
         F_new, tau = held_return(Cu, F[p], dt, p, fixed[p], x[p], dx, ex, body, mat_kind, mat_par, Jp, rule % 16,
                                  fx)   # (I + dt C) F, the return mapping; in a held box the image gradient (held.py)
-        tau = trap_tau(F_new, tau, dt, p, fixed[p], x[p], dx, ex, body, mat_kind, mat_par, Jp, fx, C_guess, C_start,
-                       rule)
+        tau = trap_tau(Cp, F_new, tau, dt, p, fixed[p], x[p], dx, ex, body, mat_kind, mat_par, Jp, fx, C_guess, rule)
         F[p] = F_new
         eta = mat_par[body[p], P_ETA]
         pm = p_mass[p]

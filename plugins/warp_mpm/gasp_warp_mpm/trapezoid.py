@@ -18,8 +18,8 @@ start's stress with the end velocity is symplectic Euler (bounded), round 68's "
 a held point keep their return mapping's increment and stress. Not for scenes with rigid bodies or moving colliders'
 state (their state is not restored between passes).
 
-:attr:`TrapezoidStress.trapezoid_passes` (P2G-grid-G2P passes a substep, the last the real one) and :data:`TRAP_WEIGHT`
-are read when the launches are recorded (a change needs a fresh engine, and for the weight a fresh process).
+The option ``stress_passes`` (P2G-grid-G2P passes a substep, the last the real one; 1 by default: the guess ``C_n``,
+no trial) is read each substep; :data:`TRAP_WEIGHT` when the kernels are built (a change needs a fresh process).
 
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of
 the closures below as type objects.
@@ -36,25 +36,19 @@ from .precision import build_types
 
 #: The ``rule`` argument's bit of the P2G kernel that selects the trapezoidal stress (bit 3: round 68's "mid").
 TRAP_BIT = 16
-#: The ``rule`` bit of the stress-free trial (``TrapezoidStress.trapezoid_start = "grid"``): P2G scatters no stress of
-#: a point under the trapezoid.
-STRESS_OFF_BIT = 32
 #: The weight of the end gradient in ``C_avg`` (1/2: the trapezoid). A catch of ``tests/test_stress_at.py`` sets 1
 #: (the end gradient alone: round 68's damping class) in a fresh process.
 TRAP_WEIGHT = 0.5
 
 POINT_STATE = ("x", "v", "C", "F", "Jp", "C_prev")
-TRAP_ARRAYS = ("C_prev", "C_guess", "C_start")
 
 
 @functools.cache
 def build_trapezoid(Ft):
-    """``(trap_gradient, trap_tau)``. ``trap_gradient(Cp, p, rule, body, mat_kind, C_prev, C_start)``: the gradient
-    that advances ``F`` (``C_avg`` of the increment that ends now, ``C_prev`` its start's, for a hyperelastic point
-    under :data:`TRAP_BIT`, else ``Cp``), ``C_prev`` set to ``C_start`` (the increment that starts now: ``Cp``, or the
-    stress-free trial's gradient). ``trap_tau(F, tau, dt, p, code, X, dx, ex, body, mat_kind, mat_par, Jp, fx,
-    C_guess, C_start, rule)``: the midpoint stress of the increment that starts now (module notes), zero under
-    :data:`STRESS_OFF_BIT`, else ``tau``."""
+    """``(trap_gradient, trap_tau)``. ``trap_gradient(Cp, p, rule, body, mat_kind, C_prev)``: the gradient that
+    advances ``F`` (``C_avg`` of the increment that ends now for a hyperelastic point under :data:`TRAP_BIT`, else
+    ``Cp``), ``C_prev`` set to ``Cp``. ``trap_tau(Cp, F, tau, dt, p, code, X, dx, ex, body, mat_kind, mat_par, Jp, fx,
+    C_guess, rule)``: the midpoint stress of the increment that starts now (module notes), else ``tau``."""
     vec3, vec4, mat33 = build_types(Ft)
     Extras = build_extras_struct(Ft)
     from .held import build_image_flip   # here: held.py imports this module through held_rule.py
@@ -64,30 +58,25 @@ def build_trapezoid(Ft):
 
     @wp.func
     def trap_gradient(Cp: mat33, p: int, rule: int, body: wp.array(dtype=wp.int32),
-                      mat_kind: wp.array(dtype=wp.int32), C_prev: wp.array(dtype=mat33),
-                      C_start: wp.array(dtype=mat33)):
+                      mat_kind: wp.array(dtype=wp.int32), C_prev: wp.array(dtype=mat33)):
         if rule < TRAP_BIT:
             return Cp
         kind = mat_kind[body[p]]
         Cu = Cp
         if kind == JELLY or kind == NEO_HOOKEAN:
             Cu = (Ft(1.0) - w) * C_prev[p] + w * Cp
-        C_prev[p] = C_start[p]
+        C_prev[p] = Cp
         return Cu
 
     @wp.func
-    def trap_tau(Fp: mat33, tau: mat33, dt: Ft, p: int, code: int, X: vec3, dx: Ft, ex: Extras,
+    def trap_tau(Cp: mat33, Fp: mat33, tau: mat33, dt: Ft, p: int, code: int, X: vec3, dx: Ft, ex: Extras,
                  body: wp.array(dtype=wp.int32), mat_kind: wp.array(dtype=wp.int32), mat_par: wp.array2d(dtype=Ft),
-                 Jp: wp.array(dtype=Ft), fx: vec3, C_guess: wp.array(dtype=mat33), C_start: wp.array(dtype=mat33),
-                 rule: int):
+                 Jp: wp.array(dtype=Ft), fx: vec3, C_guess: wp.array(dtype=mat33), rule: int):
         if rule < TRAP_BIT:
             return tau
         if held_axis(code, X, dx, ex) >= 0:
             return tau
-        kind = mat_kind[body[p]]
-        if (rule // STRESS_OFF_BIT) % 2 == 1 and (kind == JELLY or kind == NEO_HOOKEAN):
-            return mat33()
-        Ca = (Ft(1.0) - w) * C_start[p] + w * C_guess[p]
+        Ca = (Ft(1.0) - w) * Cp + w * C_guess[p]
         return mid_tau(Ca, Fp, tau, dt, p, body, mat_kind, mat_par, Jp, fx)   # H = I + dt/2 C_avg
 
     return trap_gradient, trap_tau
@@ -96,59 +85,37 @@ def build_trapezoid(Ft):
 class TrapezoidStress:
     """The engine's trial passes (a mixin of :class:`gasp_warp_mpm.engine.WarpMPMEngine`, through ``HeldRule``)."""
 
-    #: P2G-grid-G2P passes a substep under ``stress_at = "trapezoid"``, the last the real one (1: the guess ``C_n``
-    #: alone, round 68's stress with the averaged increment). Read when the launches are recorded.
-    trapezoid_passes = 3
-    #: The increment's start gradient ``C_n``: "point", the point's own (its last G2P's); "grid", the gradient of the
-    #: grid's velocity before the stress's kick (the contact's impulse and the grid's rules in it), gathered by one more
-    #: trial substep with the stress of these points off. Read when the launches are recorded.
-    trapezoid_start = "point"
-
     def trap_on(self) -> bool:
         return self.config.stress_at == "trapezoid"
 
     def trap_arrays(self) -> list:
-        """``[C_prev, C_guess, C_start]`` for P2G (one entry each when the option is off), allocated once; the
-        kernel's ``rule`` kept for the stress-free trial."""
+        """``[C_prev, C_guess]`` for P2G (one entry each when the option is off), allocated once."""
         if getattr(self, "C_prev", None) is None:
             on = self.trap_on()
             self.C_prev = wp.clone(self.C) if on else wp.zeros(1, dtype=self.C.dtype, device=self.device)
-            self.C_guess, self.C_start = (wp.zeros(self.C.shape[0] if on else 1, dtype=self.C.dtype,
-                                                   device=self.device) for _ in range(2))
+            self.C_guess = wp.zeros(self.C.shape[0] if on else 1, dtype=self.C.dtype, device=self.device)
             self._trap_saved = [(n, wp.empty_like(getattr(self, n))) for n in POINT_STATE] if on else []
-        self._trap_rule = self.held_rule_flag()
-        return [getattr(self, n) for n in TRAP_ARRAYS]
+        return [self.C_prev, self.C_guess]
 
     def trap_sorted(self) -> list:
         """The per-point arrays the CPU's sort moves besides the engine's own (``C_prev``)."""
         return [self.C_prev] if self.trap_on() else []
 
     def trial_passes(self, capturing: bool = False) -> None:
-        """Before a substep's launches (P2G the first, ``_launches[0]``): ``C_start`` set to ``C`` (or, with
-        :attr:`trapezoid_start` "grid", to the stress-free trial's gathered ``C``), ``C_guess`` to ``C`` (pass 0), then
-        ``trapezoid_passes - 1`` trial substeps from the saved points, each leaving its gathered ``C`` in ``C_guess``."""
+        """Before a substep's launches: ``C_guess`` set to ``C`` (pass 0), then ``stress_passes - 1`` trial
+        substeps from the saved points, each leaving its gathered ``C`` in ``C_guess``."""
         if not self.trap_on():
             return
-        if self.trapezoid_start == "grid":   # the gradient before the stress's kick: a stress-free trial
-            self._launches[0].set_param_by_name("rule", self._trap_rule + STRESS_OFF_BIT)
-            self._trial(self.C_start, capturing)
-            self._launches[0].set_param_by_name("rule", self._trap_rule)
-        else:
-            wp.copy(self.C_start, self.C)
         wp.copy(self.C_guess, self.C)
-        for _ in range(int(self.trapezoid_passes) - 1):
-            self._trial(self.C_guess, capturing)
-
-    def _trial(self, out, capturing: bool) -> None:
-        """One trial substep from the saved points, its gathered ``C`` copied to ``out``."""
-        for n, saved in self._trap_saved:
-            wp.copy(saved, getattr(self, n))
-        for cmd in self._pre:
-            cmd.launch()
-        for i, cmd in enumerate(self._launches):
-            cmd.launch()
-            if i == 0 and self.visc is not None:
-                self.visc.solve(capturing)
-        wp.copy(out, self.C)
-        for n, saved in self._trap_saved:
-            wp.copy(getattr(self, n), saved)
+        for _ in range(int(self.config.stress_passes) - 1):
+            for n, saved in self._trap_saved:
+                wp.copy(saved, getattr(self, n))
+            for cmd in self._pre:
+                cmd.launch()
+            for i, cmd in enumerate(self._launches):
+                cmd.launch()
+                if i == 0 and self.visc is not None:
+                    self.visc.solve(capturing)
+            wp.copy(self.C_guess, self.C)
+            for n, saved in self._trap_saved:
+                wp.copy(getattr(self, n), saved)
