@@ -10,10 +10,15 @@ from gasp_core.mpm.materials import JELLY, NEO_HOOKEAN, P_LAM, P_MU
 
 
 def mid_flag(stress_at) -> bool:
-    """The solver's ``mid_stress`` from the option ``stress_at`` (or a bool): "trapezoid" (round 69, warp_mpm only) is
-    refused (``gasp_core.mpm.stress_at.mid_flag``) rather than run another stress under its name."""
-    from gasp_core.mpm.stress_at import mid_flag as core_flag
-    return bool(stress_at) if isinstance(stress_at, bool) else core_flag(stress_at, "taichi_mpm")
+    """The solver's ``mid_stress`` from the option ``stress_at`` (or a bool): "trapezoid" (round 69, warp_mpm's
+    ``trapezoid.py`` only) is refused (``EngineError``) rather than run another stress under its name."""
+    if isinstance(stress_at, bool):
+        return stress_at
+    if stress_at == "trapezoid":
+        from gasp_core.seam import EngineError
+        raise EngineError('engine \'taichi_mpm\': stress_at = "trapezoid" is built on warp_mpm only (round 69, '
+                          'docs/fracture.md); use "start" or "mid"')
+    return stress_at == "mid"
 
 
 class MidStress:

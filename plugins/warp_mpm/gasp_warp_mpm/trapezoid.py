@@ -44,14 +44,18 @@ POINT_STATE = ("x", "v", "C", "F", "Jp", "C_prev")
 
 
 @functools.cache
-def build_trapezoid(Ft):
-    """``(trap_gradient, trap_tau)``. ``trap_gradient(Cp, p, rule, body, mat_kind, C_prev)``: the gradient that
-    advances ``F`` (``C_avg`` of the increment that ends now for a hyperelastic point under :data:`TRAP_BIT`, else
-    ``Cp``), ``C_prev`` set to ``Cp``. ``trap_tau(Cp, F, tau, dt, p, code, X, dx, ex, body, mat_kind, mat_par, Jp, fx,
-    C_guess, rule)``: the midpoint stress of the increment that starts now (module notes), else ``tau``."""
+def trapezoid_return(Ft, held_return):
+    """``trap_return(C, F, dt, p, code, X, dx, ex, body, mat_kind, mat_par, Jp, rule, fx, C_prev, C_guess)``: P2G's
+    ``held_return`` (given, :func:`gasp_warp_mpm.held.build_held_return`'s; ``rule``'s bits 0-3) with the increment's
+    gradient and the stress of :data:`TRAP_BIT`; ``(F, tau)``. Of ``trap_gradient(Cp, p, rule, body, mat_kind,
+    C_prev)``: the gradient that advances ``F`` (``C_avg`` of the increment that ends now, ``C_prev`` its start's, for a
+    hyperelastic point under :data:`TRAP_BIT`, else ``Cp``), ``C_prev`` set to ``Cp``; and ``trap_tau(Cp, F, tau, dt,
+    p, code, X, dx, ex, body, mat_kind, mat_par, Jp, fx, C_guess, rule)``: the midpoint stress of the increment that
+    starts now (module notes), else ``tau``. Not a ``build_*`` (warmup.py calls those with ``Ft`` alone): transfers.py
+    builds it with P2G."""
     vec3, vec4, mat33 = build_types(Ft)
     Extras = build_extras_struct(Ft)
-    from .held import build_image_flip   # here: held.py imports this module through held_rule.py
+    from .held import build_image_flip   # here: held.py imports this module (through held_rule.py)
     held_axis = build_image_flip(Ft)[0]
     mid_tau = build_mid_stress(Ft)
     w = Ft(TRAP_WEIGHT)
@@ -79,7 +83,16 @@ def build_trapezoid(Ft):
         Ca = (Ft(1.0) - w) * Cp + w * C_guess[p]
         return mid_tau(Ca, Fp, tau, dt, p, body, mat_kind, mat_par, Jp, fx)   # H = I + dt/2 C_avg
 
-    return trap_gradient, trap_tau
+    @wp.func
+    def trap_return(Cp: mat33, Fp: mat33, dt: Ft, p: int, code: int, X: vec3, dx: Ft, ex: Extras,
+                    body: wp.array(dtype=wp.int32), mat_kind: wp.array(dtype=wp.int32), mat_par: wp.array2d(dtype=Ft),
+                    Jp: wp.array(dtype=Ft), rule: int, fx: vec3, C_prev: wp.array(dtype=mat33),
+                    C_guess: wp.array(dtype=mat33)):
+        F_new, tau = held_return(trap_gradient(Cp, p, rule, body, mat_kind, C_prev), Fp, dt, p, code, X, dx, ex, body,
+                                 mat_kind, mat_par, Jp, rule % TRAP_BIT, fx)
+        return F_new, trap_tau(Cp, F_new, tau, dt, p, code, X, dx, ex, body, mat_kind, mat_par, Jp, fx, C_guess, rule)
+
+    return trap_return
 
 
 class TrapezoidStress:
