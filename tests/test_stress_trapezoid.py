@@ -79,12 +79,15 @@ def test_the_free_bar_check_catches_the_end_gradient_alone(free_bar):
     assert not kept_check(bar("trapezoid", weight=1.0), free_bar["start"])
 
 
-def test_taichi_mpm_refuses_the_trapezoid():
+def test_taichi_mpm_takes_the_trapezoid_of_one_pass_alone():
     from gasp_core.seam import EngineError
-    mid_flag = pytest.importorskip("gasp_taichi_mpm.mid_stress").mid_flag
-    assert (mid_flag("start"), mid_flag("mid"), mid_flag(True)) == (False, True, True)
-    with pytest.raises(EngineError, match="trapezoid"):
-        mid_flag("trapezoid")
+    flags = pytest.importorskip("gasp_taichi_mpm.mid_stress").stress_flags
+    from gasp_taichi_mpm import TaichiMPMConfig as Cfg
+    assert [flags(Cfg(stress_at=a)) for a in ("start", "mid", "trapezoid")] == [(False, False), (True, False),
+                                                                               (False, True)]
+    assert flags(True) == (True, False)
+    with pytest.raises(EngineError, match="stress_passes"):
+        flags(Cfg(stress_at="trapezoid", stress_passes=2))
 
 
 def test_the_options_are_declared():
