@@ -6,7 +6,8 @@ ground, no gravity, 4 periods at cfl 0.8. "trapezoid" keeps the energy that "sta
 loses it as a Rayleigh damping of coefficient ``dt/2`` predicts (the log of its energy kept against start's within 5
 % of the prediction's: round 68's reading, measured). Its catch (a fresh process): the end gradient alone in the
 increment and the midpoint (``trapezoid.TRAP_WEIGHT = 1``: round 68's "mid") fails the first check. taichi_mpm
-refuses "trapezoid" (not built there). Slow (warp_mpm), the ledger's family: under "trapezoid" the elastic step's
+takes "trapezoid" with one pass alone (``stress_passes`` > 1 refused); slow, its free bar and its catch
+(``MidStress.trap_weight = 1``). Slow (both engines), the ledger's family: under "trapezoid" the elastic step's
 gain paired with its own offset (a whole step: ``free_vibration.py --ledger``) stays under 1 % of the energy brought on
 the ball at n_grid 32 and 48, 2 and 4.43 m/s, and the README jelly donut at cfl 0.8, and the energy left is within 3
 points of "start"'s (no damping class); its catch (``TRAP_WEIGHT = 1``) leaves the ball at n_grid 32, 4.43 m/s 4
@@ -33,11 +34,12 @@ GAIN = 0.01           # tests/test_energy_ledger.py's gate
 LEFT_TOL = 0.03       # the energy left against start's, two-sided (of E0)
 
 
-def bar(at: str, weight: float | None = None) -> dict:
-    """``free_vibration.run`` on warp_mpm, n_grid 32, cfl 0.8 (with ``TRAP_WEIGHT`` set first in a fresh process)."""
+def bar(at: str, weight: float | None = None, engine: str = "warp_mpm") -> dict:
+    """``free_vibration.run`` on ``engine``, n_grid 32, cfl 0.8 (with warp_mpm's ``TRAP_WEIGHT`` set first in a fresh
+    process)."""
     if weight is None:
         from free_vibration import run
-        return run("warp_mpm", 32, 0.8, at, 1)
+        return run(engine, 32, 0.8, at, 1)
     code = ("import json, sys; sys.path[:0] = ['benchmarks', 'benchmarks/studies']; import gasp_warp_mpm.trapezoid "
             f"as t; t.TRAP_WEIGHT = {weight!r}; from free_vibration import run; "
             f"print(json.dumps(run('warp_mpm', 32, 0.8, {at!r}, 1)))")
@@ -98,14 +100,25 @@ def test_the_options_are_declared():
     assert any(o.name == "stress_passes" for o in m.OPTIONS)
 
 
+@pytest.mark.slow
+def test_taichi_mpm_keeps_the_free_bars_energy_and_its_catch(monkeypatch):
+    """taichi_mpm's trapezoid (one pass): the free bar as warp_mpm's check; its catch ``MidStress.trap_weight = 1``."""
+    pytest.importorskip("gasp_taichi_mpm")
+    from gasp_taichi_mpm.mid_stress import MidStress
+    start = bar("start", engine="taichi_mpm")
+    assert kept_check(bar("trapezoid", engine="taichi_mpm"), start)
+    monkeypatch.setattr(MidStress, "trap_weight", 1.0)
+    assert not kept_check(bar("trapezoid", engine="taichi_mpm"), start)
+
+
 FAMILY = [("ball", 32, 2.0, None), ("ball", 32, 4.43, None), ("ball", 48, 2.0, None), ("ball", 48, 4.43, None),
           ("donut", 48, 4.43, 0.8)]
 
 
-def family_run(body, n_grid, speed, cfl, at, weight=None) -> dict:
+def family_run(body, n_grid, speed, cfl, at, weight=None, engine="warp_mpm") -> dict:
     if weight is None:
         from energy_ledger_family import run
-        return run(body, "warp_mpm", n_grid, speed, 40.0, cfl=cfl, stress_at=at)
+        return run(body, engine, n_grid, speed, 40.0, cfl=cfl, stress_at=at)
     code = ("import json, sys; sys.path[:0] = ['benchmarks']; import gasp_warp_mpm.trapezoid as t; "
             f"t.TRAP_WEIGHT = {weight!r}; from energy_ledger_family import run; r = run({body!r}, 'warp_mpm', "
             f"{n_grid}, {speed}, 40.0, cfl={cfl!r}, stress_at={at!r}); "
@@ -120,11 +133,12 @@ def left_check(trap: dict, start: dict) -> bool:
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("engine", ["taichi_mpm", "warp_mpm"])
 @pytest.mark.parametrize("body,n_grid,speed,cfl", FAMILY)
-def test_the_trapezoid_gains_under_one_percent_and_does_not_damp(body, n_grid, speed, cfl):
-    pytest.importorskip("gasp_warp_mpm")
-    trap = family_run(body, n_grid, speed, cfl, "trapezoid")
-    start = family_run(body, n_grid, speed, cfl, "start")
+def test_the_trapezoid_gains_under_one_percent_and_does_not_damp(body, n_grid, speed, cfl, engine):
+    pytest.importorskip("gasp_taichi_mpm" if engine == "taichi_mpm" else "gasp_warp_mpm")
+    trap = family_run(body, n_grid, speed, cfl, "trapezoid", engine=engine)
+    start = family_run(body, n_grid, speed, cfl, "start", engine=engine)
     assert 0.0 <= trap["elastic_full_worst"] / trap["E0"] < GAIN, trap["elastic_full_worst"] / trap["E0"]
     assert left_check(trap, start), (trap["E_end"] / trap["E0"], start["E_end"] / start["E0"])
 

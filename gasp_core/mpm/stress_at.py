@@ -10,8 +10,8 @@ bounded offset) but not where the velocity gradient was set by something else th
 impulse, the ground's friction (round 68: the jelly donut's gain 2.75 % of the energy brought with the scene's
 friction 0.5, 1.33 % without; docs/fracture.md).
 
-``"trapezoid"`` (round 69, docs/fracture.md "Round 69: the trapezoidal stress"; built where an engine says so, the
-others refuse it) advances ``F`` by the mean of the increment's start and end gradients and scatters the stress of
+``"trapezoid"`` (round 69, docs/fracture.md "Round 69: the trapezoidal stress"; an engine without trial passes refuses
+``stress_passes`` > 1) advances ``F`` by the mean of the increment's start and end gradients and scatters the stress of
 that increment's midpoint, the end gradient from :data:`STRESS_PASSES` fixed-point passes (1: the start's as the
 guess): the trapezoidal rule, no gain and no damping on a free vibration.
 
@@ -40,9 +40,8 @@ STRESS_AT = Option(
     "Euler, the default), or 'mid', the work-conjugate stress of F_mid = (I + dt/2 C) F, whose work is the stored "
     "energy's rise to third order (the jelly donut thrown at 4.43 m/s at cfl 0.8: its elastic step gains 2.75 % of "
     "the energy brought with 'start', 0.18 % with 'mid', which damps it instead: 16 % of it lost by the step; "
-    "gasp_core.mpm.stress_at, docs/fracture.md round 68), or 'trapezoid' (not on every engine: one that lacks it "
-    "refuses it), F advanced by the mean of the increment's start and end velocity gradients and the stress at that "
-    "increment's midpoint (stress_passes): the donut gains 0.17-0.45 % and keeps 75 % (start 77.4, mid 64.3), a free "
+    "gasp_core.mpm.stress_at, docs/fracture.md round 68), or 'trapezoid', F advanced by the mean of the increment's start and end velocity gradients and the stress at that "
+    "increment's midpoint (stress_passes; an engine without trial passes refuses more than one): the donut gains 0.17-0.45 % and keeps 75 % (start 77.4, mid 64.3), a free "
     "vibration its energy (docs/fracture.md round 69)", kind="str",
     choices=STRESS_ATS)
 

@@ -32,6 +32,9 @@ class MidStress:
     #: advanced by the mean of the point's last two gradients (``C_prev``, :meth:`trap_gradient`), the stress at
     #: :meth:`mid_tau`'s midpoint; warp_mpm's ``trapezoid.py`` with ``stress_passes = 1``.
     trap_stress = False
+    #: The end gradient's weight in the trapezoid's increment (1/2; read when the kernels compile): the catch of
+    #: ``tests/test_stress_trapezoid.py`` sets 1 (the end gradient alone: round 68's "mid"). warp_mpm's ``TRAP_WEIGHT``.
+    trap_weight = 0.5
     #: The midpoint's place in the increment (1/2; read when the kernels compile): the catch of
     #: ``tests/test_stress_at.py`` sets -1/2 (the stress extrapolated back, which gains).
     mid_fraction = 0.5
@@ -46,7 +49,7 @@ class MidStress:
             kind = ti.static(next(iter(self.kinds)))
         out = Cf
         if a < 0 and (kind == JELLY or kind == NEO_HOOKEAN):
-            out = 0.5 * (self.C_prev[p] + C)
+            out = (1.0 - ti.static(self.trap_weight)) * self.C_prev[p] + ti.static(self.trap_weight) * C
         self.C_prev[p] = C
         return out
 
