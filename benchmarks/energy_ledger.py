@@ -229,6 +229,7 @@ class WarpSteps:
     def substep(self) -> dict:
         e, out = self.e, {}
         assert e.visc is None and e._tick is None
+        e.trial_passes()   # stress_at "trapezoid": its trial substeps, not booked (gasp_warp_mpm.trapezoid)
         for cmd in e._pre:
             cmd.launch()
         for i, cmd in enumerate(e._launches):

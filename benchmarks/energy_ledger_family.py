@@ -86,13 +86,14 @@ def scene(body: str, engine: str, n_grid: int, v: float, cfl: float | None = Non
 def run(body: str, engine: str, n_grid: int, v: float, ms: float, cfl: float | None = None,
         gravity_scale: float = 1.0, stiffness_scale: float = 1.0, every_ms: float = 5.0,
         damping: float | None = None, flip: float | None = None, parts: bool = False, rule: str | None = None,
-        stress_at: str | None = None, friction: float | None = None) -> dict:
+        stress_at: str | None = None, friction: float | None = None, passes: int | None = None) -> dict:
     """One landing's ledger (module notes): sums of the sinks, the energy left, and a row every ``every_ms``.
     Prototypes, off by default (None): ``damping``, the particle contact's damping ratio
     (``gasp_core.mpm.contact.DAMPING``, 0.5) for this run; ``flip``, the engines' AFLIP option; ``rule``, the
     engines' ``cfl_rule`` option (``gasp_core.mpm.substeps.CFL_RULES``); ``stress_at``, the engines' option
     (``gasp_core.mpm.stress_at``, round 68); ``friction``, the ground's friction for this run (round 68's split of the
-    donut's gain). ``parts``: also the
+    donut's gain); ``passes``, warp_mpm's trial passes under ``stress_at = "trapezoid"`` (round 69,
+    the engines' option ``stress_passes``). ``parts``: also the
     parts of 1 % of the mass or more at the end (``gasp_core.testing.pieces_count.FramePieces``)."""
     import gasp_core.mpm.contact as gc
     from gasp_core.seam.build import build_engine
@@ -109,9 +110,12 @@ def run(body: str, engine: str, n_grid: int, v: float, ms: float, cfl: float | N
                             for b in setup.boundaries]
     keep = gc.DAMPING
     gc.DAMPING = keep if damping is None else damping
+    if passes is not None:
+        setup.options["stress_passes"] = passes
     try:
         return _run(setup, body, engine, n_grid, v, ms, cfl, gravity_scale, stiffness_scale, every_ms, parts) | {
-            "damping": damping, "flip": flip, "rule": rule, "stress_at": stress_at, "friction": friction}
+            "damping": damping, "flip": flip, "rule": rule, "stress_at": stress_at, "friction": friction,
+            "passes": passes}
     finally:
         gc.DAMPING = keep
 
@@ -133,9 +137,12 @@ def _run(setup, body, engine, n_grid, v, ms, cfl, gravity_scale, stiffness_scale
         sums = {k: 0.0 for k in SINKS + UNTRACED}
         least = {k: 0.0 for k in SINKS}
         trace, worst, paired, psi = [], 0.0, 0.0, led.E["psi"]
+        full, raw = 0.0, 0.0   # round 69: paired with a whole step's offset (the trapezoid's), and not paired
         for i in range(n):
             r = led.step()
             paired = max(paired, sums["elastic"] + 0.5 * (r["psi"] - psi))   # the last row's, paired (notes)
+            full = max(full, sums["elastic"] + (r["psi"] - psi))
+            raw = max(raw, sums["elastic"])
             psi = r["psi"]
             for k in sums:
                 sums[k] += r[k]
@@ -146,14 +153,15 @@ def _run(setup, body, engine, n_grid, v, ms, cfl, gravity_scale, stiffness_scale
                 trace.append({"t_ms": (i + 1) * led.dt * 1e3, "E": r["total"], "kinetic": r["kinetic"],
                               "Ep": r["Ep"], "psi": r["psi"], "D": r["D"], "U": r["U"],
                               **{k: sums[k] for k in sums}})
-        paired = max(paired, sums["elastic"])
+        paired, full, raw = (max(q, sums["elastic"]) for q in (paired, full, raw))
         pieces = count_parts(setup, e) if parts else None
     finally:
         e.close()
     return {"body": body, "engine": engine, "n_grid": n_grid, "speed": v, "ms": ms, "cfl": cfl,
             "gravity_scale": gravity_scale, "stiffness_scale": stiffness_scale, "dt": led.dt, "substeps": n,
             "n_points": int(len(led.kc)), "E0": E0, "E_end": trace[-1]["E"], "sums": sums, "least": least,
-            "untraced_worst": worst, "elastic_paired_worst": paired, "mass_err": led.mass_err,
+            "untraced_worst": worst, "elastic_paired_worst": paired, "elastic_full_worst": full,
+            "elastic_raw_worst": raw, "mass_err": led.mass_err,
             "seconds": time.time() - t0, "trace": trace,
             "parts": pieces}
 
@@ -203,7 +211,8 @@ def parts_run(engine: str, n_grid: int, v: float, frames: int = 5, damping: floa
 
 def key(r: dict) -> tuple:
     return (r["body"], r["engine"], r["n_grid"], r["speed"], r["ms"], r.get("cfl"), r["gravity_scale"],
-            r["stiffness_scale"], r.get("damping"), r.get("flip"), r.get("rule"), r.get("stress_at"), r.get("friction"))
+            r["stiffness_scale"], r.get("damping"), r.get("flip"), r.get("rule"), r.get("stress_at"), r.get("friction"),
+            r.get("passes"))
 
 
 def report(runs: list[dict]) -> list[str]:
@@ -221,7 +230,7 @@ def report(runs: list[dict]) -> list[str]:
         pct = lambda x: f"{100 * x / e0:.1f}"   # noqa: E731
         tag = "" if r["gravity_scale"] == 1 and r["stiffness_scale"] == 1 else \
             f" (catch: g x{r['gravity_scale']}, E x{r['stiffness_scale']})"
-        tag += "".join(f" ({k} {r[k]})" for k in ("damping", "flip", "rule", "stress_at", "friction")
+        tag += "".join(f" ({k} {r[k]})" for k in ("damping", "flip", "rule", "stress_at", "passes", "friction")
                        if r.get(k) is not None)
         tag += f" (parts {', '.join(f'{q:.3f}' for q in r['parts'])})" if r.get("parts") else ""
         lines.append(f"| {r['body']}{tag} | {r['engine']} | {r['n_grid']} | {r['speed']} | {r['ms']:g} | "
@@ -263,12 +272,16 @@ def main(argv=None) -> int:
     ap.add_argument("--flip", type=float, default=None, help="prototype: the engines' AFLIP blend")
     ap.add_argument("--rule", default=None, help="the engines' cfl_rule option ('max', 'sum')")
     ap.add_argument("--stress-at", default=None, help="the engines' stress_at option ('start', 'mid'; round 68)")
+    ap.add_argument("--passes", type=int, default=None, help="the engines' stress_passes option (round 69)")
+    ap.add_argument("--out", default=None, help="the results' path without suffix (default benchmarks/results/"
+                    "energy_ledger)")
     ap.add_argument("--friction", type=float, default=None, help="the ground's friction (default: the scene's)")
     ap.add_argument("--parts", action="store_true", help="count the parts of 1 %% or more at the end")
     ap.add_argument("--parts-only", type=int, default=0, help="the brittle donut's parts after this many frames, "
                     "engine alone (printed and kept under 'parts_runs')")
     a = ap.parse_args(argv)
-    path = OUT.with_suffix(".json")
+    out = OUT if a.out is None else Path(a.out)
+    path = out.with_suffix(".json")
     data = json.loads(path.read_text()) if path.exists() else {}
     runs = data.get("runs", [])
     if a.parts_only:
@@ -289,14 +302,17 @@ def main(argv=None) -> int:
             for v in (float(s) for s in a.speeds.split(",")):
                 for engine in a.engines.split(","):
                     r = run(body, engine, ng, v, a.ms, a.cfl, a.gravity_scale, a.stiffness_scale, damping=a.damping,
-                            flip=a.flip, parts=a.parts, rule=a.rule, stress_at=a.stress_at, friction=a.friction)
+                            flip=a.flip, parts=a.parts, rule=a.rule, stress_at=a.stress_at, friction=a.friction,
+                            passes=a.passes)
                     r["gain"] = max(0.0, max(t["E"] for t in r["trace"]) / r["E0"] - 1.0)
                     runs = [q for q in runs if key(q) != key(r)] + [r]
                     print(json.dumps({k: r[k] for k in ("body", "engine", "n_grid", "speed", "E0", "E_end",
-                                                         "sums", "untraced_worst", "seconds")}), flush=True)
+                                                         "sums", "untraced_worst", "elastic_paired_worst", "dt",
+                                                         "elastic_full_worst", "elastic_raw_worst",
+                                                         "stress_at", "passes", "seconds")}), flush=True)
                     data = json.loads(path.read_text()) if path.exists() else {}
                     path.write_text(json.dumps({**data, "runs": runs}, indent=0))
-                    OUT.with_suffix(".md").write_text("\n".join(report(runs) + parts_report(data)) + "\n")
+                    out.with_suffix(".md").write_text("\n".join(report(runs) + parts_report(data)) + "\n")
     return 0
 
 

@@ -73,7 +73,7 @@ def test_the_order_check_catches_the_midpoint_stress_without_its_pull_back():
 def test_both_engines_declare_stress_at():
     from gasp_core.mpm.options import MPMConfig
     from gasp_core.mpm.stress_at import STRESS_AT
-    assert (STRESS_AT.default, STRESS_AT.choices) == ("start", ("start", "mid"))
+    assert (STRESS_AT.default, STRESS_AT.choices) == ("start", ("start", "mid", "trapezoid"))   # round 69
     assert MPMConfig().stress_at == "start"
     for mod in ("gasp_warp_mpm", "gasp_taichi_mpm"):
         m = pytest.importorskip(mod)

@@ -4,7 +4,9 @@
 CPU seconds a frame over ``frames`` frames; "start", "mid", "start", "mid" in one process (the pair twice, for the
 machine's noise).
 
-Run: ``python benchmarks/studies/stress_at_cost.py ENGINE [FRAMES]`` (prints one JSON line a run).
+Run: ``python benchmarks/studies/stress_at_cost.py ENGINE [FRAMES] [AT,AT,...]`` (prints one JSON line a run); round
+69: ``AT`` may be ``trapezoid:P``, warp_mpm's ``stress_at = "trapezoid"`` with ``P`` passes a substep (default the
+pair order above).
 """
 from __future__ import annotations
 
@@ -22,9 +24,12 @@ def main(argv: list[str]) -> int:
     from gasp_core.seam.plugins import engines
     engine = argv[0] if argv else "taichi_mpm"
     frames = int(argv[1]) if len(argv) > 1 else 3
-    for at in ("start", "mid", "start", "mid"):
+    order = argv[2].split(",") if len(argv) > 2 else ["start", "mid", "start", "mid"]
+    for at in order:
         s = scene("donut", engine, 48, 4.43, 0.8)
-        s.options["stress_at"] = at
+        s.options["stress_at"], _, passes = at.partition(":")
+        if passes:
+            s.options["stress_passes"] = int(passes)
         e = build_engine(engines()[engine], s)
         try:
             e.step_frame()   # compile, warm

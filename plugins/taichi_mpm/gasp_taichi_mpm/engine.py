@@ -186,7 +186,7 @@ class TaichiMPMEngine(GridEngineBase, StateClock):
             passive_bounds=(*passive_bounds(setup, contact), passive_floor_friction(setup, contact)), rigid_frames=None if frames is None else (rigid, *frames),
             contact_reach=contact_reach(setup), gpu=self.schedule == "gpu",
             tiles=self.schedule == "gpu" and self.device == "cuda" and use_tiles(cfg.p2g, self.n_material),
-            deterministic=cfg.deterministic, sort_every=cfg.tile_sort_every, mid_stress=cfg.stress_at == "mid",
+            deterministic=cfg.deterministic, sort_every=cfg.tile_sort_every, mid_stress=cfg,
             body_mass=balance_mass(setup),   # round 59: 0 for a flowing body, which the balance leaves alone
             touch_speed=touch_dashpot_speed(setup, MPMSolver.touch_damping), **self._extras(setup))
         self._rigid_extras(setup, flowing_bodies(view, contact), rigid.any())

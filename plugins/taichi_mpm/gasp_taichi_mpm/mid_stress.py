@@ -9,14 +9,49 @@ import taichi as ti
 from gasp_core.mpm.materials import JELLY, NEO_HOOKEAN, P_LAM, P_MU
 
 
+def stress_flags(cfg) -> tuple[bool, bool]:
+    """The solver's ``(mid_stress, trap_stress)`` from the engine's config (its ``stress_at``, ``stress_passes``), or
+    from a bool (``mid_stress`` alone). "trapezoid" is built here with one pass alone (round 69: no trial substep;
+    warp_mpm's ``trapezoid.py`` has more): ``stress_passes`` > 1 is refused (``EngineError``) rather than run another
+    stress under its name."""
+    if isinstance(cfg, bool):
+        return cfg, False
+    if cfg.stress_at == "trapezoid" and cfg.stress_passes > 1:
+        from gasp_core.seam import EngineError
+        raise EngineError(f"engine 'taichi_mpm': stress_at = \"trapezoid\" is built with stress_passes = 1 only "
+                          f"(round 69, docs/fracture.md; {cfg.stress_passes} asked)")
+    return cfg.stress_at == "mid", cfg.stress_at == "trapezoid"
+
+
 class MidStress:
     """:meth:`mid_tau`, read by :meth:`gasp_taichi_mpm.transfers.Transfers.p2g_prep` where ``mid_stress`` is set."""
 
     #: The option ``stress_at = "mid"`` (set per solver by its ``mid_stress`` argument; read when the kernels compile).
     mid_stress = False
+    #: The option ``stress_at = "trapezoid"`` (one pass; set per solver from its ``mid_stress`` argument): ``F``
+    #: advanced by the mean of the point's last two gradients (``C_prev``, :meth:`trap_gradient`), the stress at
+    #: :meth:`mid_tau`'s midpoint; warp_mpm's ``trapezoid.py`` with ``stress_passes = 1``.
+    trap_stress = False
+    #: The end gradient's weight in the trapezoid's increment (1/2; read when the kernels compile): the catch of
+    #: ``tests/test_stress_trapezoid.py`` sets 1 (the end gradient alone: round 68's "mid"). warp_mpm's ``TRAP_WEIGHT``.
+    trap_weight = 0.5
     #: The midpoint's place in the increment (1/2; read when the kernels compile): the catch of
     #: ``tests/test_stress_at.py`` sets -1/2 (the stress extrapolated back, which gains).
     mid_fraction = 0.5
+
+    @ti.func
+    def trap_gradient(self, p, a, C, Cf):
+        """Point ``p``'s gradient for its ``F`` increment under the trapezoid: ``(C_prev + C) / 2`` for a free
+        hyperelastic point (``a < 0``), else ``Cf``; ``C_prev`` set to ``C``."""
+        b = self.body[p]
+        kind = self.kind[b]
+        if ti.static(not self.multi_kind):
+            kind = ti.static(next(iter(self.kinds)))
+        out = Cf
+        if a < 0 and (kind == JELLY or kind == NEO_HOOKEAN):
+            out = (1.0 - ti.static(self.trap_weight)) * self.C_prev[p] + ti.static(self.trap_weight) * C
+        self.C_prev[p] = C
+        return out
 
     @ti.func
     def mid_tau(self, p, C, F, tau):

@@ -51,7 +51,7 @@ from .contact import Contact
 from .fields import Fields
 from .forces import Forces, count_set_boxes
 from .grid import GridUpdate
-from .mid_stress import MidStress
+from .mid_stress import MidStress, stress_flags
 from .rigid import Rigid
 from .rigid_hold import RigidHold
 from .rigid_collider import RigidCollider
@@ -127,7 +127,7 @@ class MPMSolver(MidStress, RigidCollider, Transfers, ColouredP2G, TileP2G, Fixed
                  rigid_frames=None, contact_reach=None, body_mass=None, n_colc=0, planes=None, mixed=None, fields=None,
                  hold=None, box_hold=None, gpu=False, tiles=False, deterministic=False, sort_every=1, touch_speed=0.0,
                  mid_stress=False):
-        n, self.touch_speed_in, self.mid_stress = len(x), float(touch_speed), bool(mid_stress)   # mid_stress.py
+        n, self.touch_speed_in, (self.mid_stress, self.trap_stress) = len(x), float(touch_speed), stress_flags(mid_stress)
         self.n = n
         self.n_material = n if n_material is None else int(n_material)
         self.has_passive = self.n_material < n
@@ -199,7 +199,7 @@ class MPMSolver(MidStress, RigidCollider, Transfers, ColouredP2G, TileP2G, Fixed
         cap = max(1024, 1 << (self.n - 1).bit_length())
         self.x = ti.Vector.field(3, real, shape=cap)
         self.v = ti.Vector.field(3, real, shape=cap)
-        self.C = ti.Matrix.field(3, 3, real, shape=cap)
+        self.C, self.C_prev = (ti.Matrix.field(3, 3, real, shape=s) for s in (cap, cap if self.trap_stress else 1))
         self.F = ti.Matrix.field(3, 3, real, shape=cap)
         self.Jp = ti.field(real, shape=cap)
         self.p_mass = ti.field(real, shape=cap)
@@ -285,6 +285,8 @@ class MPMSolver(MidStress, RigidCollider, Transfers, ColouredP2G, TileP2G, Fixed
         put(self.v, v, np_real)
         put(self.F, np.broadcast_to(np.eye(3), (self.n, 3, 3)), np_real)
         put(self.C, C0, np_real)
+        if self.trap_stress:   # round 69: the trapezoid's last gradient (mid_stress.py)
+            put(self.C_prev, C0, np_real)
         put(self.Jp, jp0, np_real)
         put(self.p_mass, p_mass, np_real)
         put(self.p_vol, p_vol, np_real)

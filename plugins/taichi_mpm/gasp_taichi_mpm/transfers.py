@@ -69,11 +69,13 @@ class Transfers:
         if ti.static(self.any_fixed or self.n_set_boxes > 0):   # in a held box: the image gradient (grid.py)
             a, d_held = self.held_axis(p), self.Jp[p]
             Cf = self.along_flip(p, a, C, self.image_gradient(C, a))   # "along": the mirror's rows along its pull
+        if ti.static(self.trap_stress):   # round 69: F by the mean of the last two gradients (mid_stress.py)
+            Cf = self.trap_gradient(p, a, C, Cf)
         F = (ti.Matrix.identity(self.real, 3) + dt * Cf) @ self.F[p]
         tau = self.return_mapping(p, F)
         if ti.static(self.any_fixed or self.n_set_boxes > 0):   # its stress scattered to match; no damage
             tau = self.held_stress(p, tau, a, d_held)
-        if ti.static(self.mid_stress):   # round 68: the increment's midpoint stress, a free point (mid_stress.py)
+        if ti.static(self.mid_stress or self.trap_stress):   # round 68: the increment's midpoint stress, a free point (mid_stress.py)
             if a < 0:
                 tau = self.mid_tau(p, C, F, tau)
         eta_v = ti.cast(0.0, self.real)

@@ -222,7 +222,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
                 self.grid_g, self.has_wind, self.grid_mv0, int(self.flip > 0), self.p_contact, self.planes, self.plane_n,
                 self.grid_fb, self.grid_eta, self.c_shift, self.grid_fbody, ex, self.colc, self.n_sup, self.grid_fn,
                 self.grid_fv, self.grid_mf, self.flows, self.grid_sv, self.grid_vf, self.in_a, self.fixed, rule,
-                self.p_pic, self.body_mu]),
+                self.p_pic, self.body_mu, *self.trap_arrays()]),
             wp.launch(k.grid_update, dim=grid_sweep(self)[1], device=d, record_cmd=True, inputs=[
                 self.grid_mv, self.grid_v, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, Ft(self.wall_in), self.wall_mu,
                 self.ground, self.fixed_lo, self.fixed_hi, self.touch_slots, has_extras, ex, self.grid_g, self.has_wind,
@@ -262,7 +262,6 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
         self._check_launch = wp.launch(k.check, dim=self.n_points, device=d, record_cmd=True,
                                        inputs=[self.x, self.v, self.flags])
 
-    # ------------------------------------------------------------------ helpers
     def _cell_order(self, x: np.ndarray) -> np.ndarray:
         """Stable order of points by flat cell index (``gasp_core.mpm.points.cell_order``)."""
         return cell_order(x, self.setup.domain_lo, self.dx, self.n_grid)
@@ -275,7 +274,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
         if np.array_equal(perm, np.arange(self.n_points)):
             return
         per_point = [self.p_contact] if self.p_contact.shape[0] == self.n_points else []  # (1, 3) without planes
-        per_point += [self.X0] if self.any_rigid else []
+        per_point += ([self.X0] if self.any_rigid else []) + self.trap_sorted()   # trapezoid.py's C_prev
         for a in (self.x, self.v, self.F, self.C, self.Jp, self.p_mass, self.p_vol, self.body, self.fixed, *per_point):
             view = a.numpy()
             view[...] = view[perm]
@@ -288,6 +287,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
 
     def _substep(self, s: int, capturing: bool = False) -> None:
         """The recorded launches of substep ``s`` (its passive points' gather where they move at it)."""
+        self.trial_passes(capturing)   # stress_at "trapezoid": its trial substeps first (trapezoid.py)
         for cmd in self._pre:
             cmd.launch()
         for i, cmd in enumerate(self._launches):

@@ -32,12 +32,13 @@ from gasp_core.mpm.points import HELD_STRAINED, SET_FACE_CELLS
 from .constitutive import build_decompositions
 from .fields import build_field_reads
 from .mid_stress import MID_BIT
+from .trapezoid import TRAP_BIT, TrapezoidStress
 from .forces import build_constrain, build_extras_struct, build_set_velocity
 from .precision import MODULE_OPTIONS, build_types
 from .stencil import build_gather, build_stencil
 
 
-class HeldRule:
+class HeldRule(TrapezoidStress):
     """The engine's switch of the brittle held rule (a mixin of :class:`gasp_warp_mpm.engine.WarpMPMEngine`)."""
 
     #: True: the brittle held rule of round 32 (the module's docstring); False: the rule before it (the catch of
@@ -55,11 +56,12 @@ class HeldRule:
     def held_rule_flag(self) -> int:
         """The kernels' ``rule`` argument: where a body is brittle, bit 0 the held rule (:attr:`held_rule`),
         bit 1 the crack band weight (:attr:`weighted_band`), bit 2 the band's projection (:attr:`oblique_band`, with
-        bit 1 only); for every body, bit 3 the midpoint stress (the option ``stress_at = "mid"``, mid_stress.py)."""
+        bit 1 only); for every body, bit 3 the midpoint stress (the option ``stress_at = "mid"``, mid_stress.py), bit 4
+        the trapezoidal one (``"trapezoid"``, trapezoid.py)."""
         brittle = bool((self.mat_kind.numpy() == BRITTLE).any())
         weighted = bool(self.weighted_band) and brittle
         return (int(bool(self.held_rule) and brittle) + 2 * int(weighted) + 4 * int(weighted and self.oblique_band)
-                + MID_BIT * int(self.config.stress_at == "mid"))
+                + MID_BIT * int(self.config.stress_at == "mid") + TRAP_BIT * int(self.config.stress_at == "trapezoid"))
 
 
 @functools.cache

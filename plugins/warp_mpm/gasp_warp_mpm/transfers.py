@@ -22,11 +22,12 @@ from .balance import build_mark
 from .contact import build_collider_contact, build_passive_hold
 from .fields import build_aflip_gather, build_field_reads
 from .forces import build_extras_struct
-from .held import build_held_return
 from .held_rule import build_held_g2p
 from .precision import MODULE_OPTIONS, build_types
 from .spanned import build_spanned_inverse
 from .stencil import build_gather, build_scatter_vec, build_stencil
+from .held import build_held_return
+from .trapezoid import trapezoid_return
 
 
 @functools.cache
@@ -94,7 +95,7 @@ def build_p2g(Ft):
     point_contact = build_collider_contact(Ft)[1]
     mark_nodes = build_mark(Ft)
     Extras = build_extras_struct(Ft)
-    scatter_vec, held_return = build_scatter_vec(Ft), build_held_return(Ft)
+    scatter_vec, trap_return = build_scatter_vec(Ft), trapezoid_return(Ft, build_held_return(Ft))
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def p2g(
@@ -111,7 +112,8 @@ def build_p2g(Ft):
         ex: Extras, colc: int, n_sup: int, grid_fn: wp.array(dtype=vec3), grid_fv: wp.array(dtype=vec3),
         grid_mf: wp.array(dtype=Ft), flows: wp.array(dtype=wp.int32), grid_sv: wp.array(dtype=vec4),
         grid_vf: wp.array(dtype=Ft), in_a: wp.array(dtype=wp.int32), fixed: wp.array(dtype=wp.int32), rule: int,
-        p_pic: wp.array(dtype=wp.int32), body_mu: wp.array(dtype=Ft),
+        p_pic: wp.array(dtype=wp.int32), body_mu: wp.array(dtype=Ft), C_prev: wp.array(dtype=mat33),
+        C_guess: wp.array(dtype=mat33),
     ):
         # F by C, return mapping, stress (docs/mpm.md), the scatter (wind: grid_g; flip: the APIC momentum alone to
         # grid_mv0, gasp_core.mpm.transfer); particle contact (planes: grounds, walls; colc: colliders): the normal
@@ -131,15 +133,14 @@ def build_p2g(Ft):
         b2 = wp.floor(X[2] - Ft(0.5))
         fx = X - vec3(b0, b1, b2)
         W = weights(fx)
-        Cp = C[p]
-        F_new, tau = held_return(Cp, F[p], dt, p, fixed[p], x[p], dx, ex, body, mat_kind, mat_par, Jp, rule,
-                                 fx)   # (I + dt C) F, the return mapping; in a held box the image gradient (held.py)
+        F_new, tau = trap_return(C[p], F[p], dt, p, fixed[p], x[p], dx, ex, body, mat_kind, mat_par, Jp, rule, fx,
+                                 C_prev, C_guess)   # (I + dt C) F, the return mapping, the stress (trapezoid.py)
         F[p] = F_new
         eta = mat_par[body[p], P_ETA]
         pm = p_mass[p]
         # the affine momentum's mass: none for a point of A touching B (p_pic: one 0 without the marks; PIC_AT_B)
         pc = pm * Ft(1 - p_pic[wp.min(p, p_pic.shape[0] - 1)])
-        affine = (-dt * p_vol[p] * Ft(4.0) * inv_dx * inv_dx) * tau + pc * Cp
+        affine = (-dt * p_vol[p] * Ft(4.0) * inv_dx * inv_dx) * tau + pc * C[p]
         A = dx * affine  # affine dpos = A ((i, j, k) - fx)
         mom0 = pm * v[p] - A * fx
         idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
@@ -169,7 +170,7 @@ def build_p2g(Ft):
                 elif mu_p < Ft(-1.5):   # B's unnamed body beside named ones (UNNAMED): its mass, the fifth part
                     scatter_scalar(grid_vf, idx0 + 4 * n_grid * n_grid * n_grid, n_grid, W, pm)
         if flip != 0:
-            A0 = (dx * pc) * Cp
+            A0 = (dx * pc) * C[p]
             scatter(grid_mv0, idx0, n_grid, W, pm * v[p] - A0 * fx, A0, pm)
             if grid_mv0.shape[0] > n_grid * n_grid * n_grid and in_a[body[p]] != 0:   # round 59: field A's own too
                 scatter(grid_mv0, idx0 + n_grid * n_grid * n_grid, n_grid, W, pm * v[p] - A0 * fx, A0, pm)
