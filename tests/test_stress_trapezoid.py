@@ -149,3 +149,53 @@ def test_the_damping_check_catches_the_end_gradient_alone():
     trap = family_run("ball", 32, 4.43, None, "trapezoid", weight=1.0)
     start = family_run("ball", 32, 4.43, None, "start")
     assert not left_check(trap, start), (trap["E_end"] / trap["E0"], start["E_end"] / start["E0"])
+
+
+def resumed_apart(engine: str, names=None) -> tuple[bytes, bytes]:
+    """The free bar under "trapezoid" (n_grid 32, cfl 0.8) run 2 frames, its state taken, 2 more; a fresh engine of the
+    same setup given that state runs the same 2 frames: both ends' positions (bytes). ``names`` replaces the engine's
+    :meth:`state_names` (the catch)."""
+    from free_vibration import bar_setup
+    from gasp_core.seam.build import build_engine
+    from gasp_core.seam.plugins import get_engine
+    info = get_engine(engine)
+    a = build_engine(info, bar_setup(32, 0.8, "trapezoid"))
+    try:
+        for _ in range(2):
+            a.step_frame()
+        if names is not None:
+            a.state_names = lambda: names(a)
+        state = a.get_state()
+        for _ in range(2):
+            a.step_frame()
+        end_a = a.positions().tobytes()
+    finally:
+        a.close()
+    b = build_engine(info, bar_setup(32, 0.8, "trapezoid"))
+    try:
+        if names is not None:
+            b.state_names = lambda: names(b)
+        b.set_state(state)
+        for _ in range(2):
+            b.step_frame()
+        return end_a, b.positions().tobytes()
+    finally:
+        b.close()
+
+
+@pytest.mark.parametrize("engine", ["warp_mpm", "taichi_mpm"])
+def test_a_trapezoid_run_resumes_bit_for_bit(engine):
+    """A resumed run continues the run it resumes, bit for bit (the feature ``state``): under "trapezoid" the state
+    holds each point's last velocity gradient ``C_prev`` (``GridEngineBase.state_names``; the default run of round 69
+    with the option on failed ``tests/test_resume.py``, ``test_sleep.py`` and ``test_three_bodies.py``'s resumes
+    without it)."""
+    pytest.importorskip(f"gasp_{engine}")
+    a, b = resumed_apart(engine)
+    assert a == b
+
+
+def test_the_resume_check_catches_a_lost_c_prev():
+    """The catch: the state without ``C_prev`` (round 69's first form) resumes the bar apart (warp_mpm)."""
+    pytest.importorskip("gasp_warp_mpm")
+    a, b = resumed_apart("warp_mpm", names=lambda eng: tuple(eng.STATE))
+    assert a != b

@@ -164,12 +164,19 @@ class GridEngineBase:
         """Restore :meth:`state_extras` (``frame``)."""
         self.frame = int(state["frame"])
 
+    def state_names(self) -> tuple[str, ...]:
+        """The arrays :meth:`get_state` saves: :attr:`STATE`, and ``C_prev`` under ``stress_at = "trapezoid"`` (round
+        69, ``gasp_core.mpm.stress_at``: each point's velocity gradient at its last P2G, which the next increment
+        averages; without it a resumed run parts from the run it continues)."""
+        trap = getattr(getattr(self, "config", None), "stress_at", "start") == "trapezoid"
+        return tuple(self.STATE) + (("C_prev",) if trap else ())
+
     def get_state(self) -> dict[str, np.ndarray]:
         """The state after the current frame: the :attr:`STATE` arrays (internal order) and
         :meth:`state_extras`. With :meth:`set_state` on a fresh engine of the same setup the run continues
         bit for bit (feature ``state``; ``gasp simulate --resume``)."""
         self.check_open()
-        out = {k: self.read_array(k) for k in self.STATE}
+        out = {k: self.read_array(k) for k in self.state_names()}
         out.update(self.state_extras())
         from gasp_core.mpm.colouring import colour_state
         out.update(colour_state(self))   # round 61: a coloured scene's last fields, so a resumed run keeps them
@@ -184,7 +191,7 @@ class GridEngineBase:
             A key is missing or an array has the wrong shape (naming the key and both shapes).
         """
         self.check_open()
-        for k in self.STATE:
+        for k in self.state_names():
             a = np.asarray(state.get(k))
             want = self.read_array(k).shape
             if a.shape != want:
