@@ -119,6 +119,17 @@ def offsets(engine: str, n_grid: int, cfl: float, at: str, passes: int) -> dict:
             **{f"c={c:g}": round(100 * w / E0, 3) for c, w in worst.items()}, "elastic_end": round(100 * el / E0, 3)}
 
 
+def cases(a):
+    """``(engine, cfl, stress_at, passes)`` of the command line ``a``: the trapezoid at each pass count (taichi_mpm:
+    one pass alone, round 69), the other schemes once (passes 0)."""
+    for engine in a.engines.split(","):
+        for cfl in (float(c) for c in a.cfl.split(",")):
+            for at in a.at.split(","):
+                for passes in ([int(q) for q in a.passes.split(",")] if at == "trapezoid" else [0]):
+                    if not (engine == "taichi_mpm" and passes > 1):
+                        yield engine, cfl, at, passes
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--engines", default="warp_mpm")
@@ -131,27 +142,17 @@ def main(argv=None) -> int:
     if a.ledger:
         print("| engine | cfl | stress_at | worst, c 0 | c 1/2 | c 1 | elastic term at the end |")
         print("|---|---|---|---|---|---|---|")
-        for engine in a.engines.split(","):
-            for cfl in (float(c) for c in a.cfl.split(",")):
-                for at in a.at.split(","):
-                    for passes in ([int(q) for q in a.passes.split(",")] if at == "trapezoid" else [0]):
-                        if engine == "taichi_mpm" and passes > 1:
-                            continue   # one pass alone there (round 69)
-                        r = offsets(engine, a.n_grid, cfl, at, passes)
-                        name = at + (f" ({passes} passes)" if r["passes"] else "")
-                        print(f"| {engine} | {cfl} | {name} | {r['c=0']} | {r['c=0.5']} | {r['c=1']} | "
-                              f"{r['elastic_end']} |", flush=True)
+        for engine, cfl, at, passes in cases(a):
+            r = offsets(engine, a.n_grid, cfl, at, passes)
+            name = at + (f" ({passes} passes)" if r["passes"] else "")
+            print(f"| {engine} | {cfl} | {name} | {r['c=0']} | {r['c=0.5']} | {r['c=1']} | {r['elastic_end']} |",
+                  flush=True)
         return 0
     rows = []
-    for engine in a.engines.split(","):
-        for cfl in (float(c) for c in a.cfl.split(",")):
-            for at in a.at.split(","):
-                for passes in ([int(q) for q in a.passes.split(",")] if at == "trapezoid" else [0]):
-                    if engine == "taichi_mpm" and passes > 1:
-                        continue   # one pass alone there (round 69)
-                    r = run(engine, a.n_grid, cfl, at, passes)
-                    print(json.dumps(r), flush=True)
-                    rows.append(r)
+    for engine, cfl, at, passes in cases(a):
+        r = run(engine, a.n_grid, cfl, at, passes)
+        print(json.dumps(r), flush=True)
+        rows.append(r)
     print("| engine | cfl | dt (ms) | stress_at | omega (rad/s) | energy kept over 3 periods | against start | "
           "Rayleigh dt/2 predicts |")
     print("|---|---|---|---|---|---|---|---|")
