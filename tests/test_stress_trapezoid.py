@@ -199,3 +199,22 @@ def test_the_resume_check_catches_a_lost_c_prev():
     pytest.importorskip("gasp_warp_mpm")
     a, b = resumed_apart("warp_mpm", names=lambda eng: tuple(eng.STATE))
     assert a != b
+
+
+def test_trial_passes_are_refused_beside_a_rigid_body():
+    """``stress_passes`` > 1 runs trial substeps that restore the points alone: warp_mpm refuses it for a scene with a
+    rigid body (an ``EngineError`` naming the option), and builds the same scene with one pass."""
+    pytest.importorskip("gasp_warp_mpm")
+    import dataclasses
+    from free_vibration import bar_setup
+    from gasp_core.seam import EngineError
+    from gasp_core.seam.build import build_engine
+    from gasp_core.seam.plugins import get_engine
+
+    def rigid(passes):
+        s = bar_setup(32, 0.8, "trapezoid", passes)
+        s.materials = [dataclasses.replace(m, model="rigid", E=1.0e10) for m in s.materials]
+        return s
+    with pytest.raises(EngineError, match="stress_passes = 2"):
+        build_engine(get_engine("warp_mpm"), rigid(2))
+    build_engine(get_engine("warp_mpm"), rigid(1)).close()

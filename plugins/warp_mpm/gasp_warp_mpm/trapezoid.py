@@ -105,6 +105,13 @@ class TrapezoidStress:
         """``[C_prev, C_guess]`` for P2G (one entry each when the option is off), allocated once."""
         if getattr(self, "C_prev", None) is None:
             on = self.trap_on()
+            if on and int(self.config.stress_passes) > 1 and (getattr(self, "any_rigid", False)
+                                                              or self.setup.colliders):
+                from gasp_core.seam import EngineError
+                raise EngineError(f"engine 'warp_mpm': stress_passes = {int(self.config.stress_passes)} under "
+                                  "stress_at = \"trapezoid\" runs trial substeps that do not restore rigid bodies' "
+                                  "or colliders' state; this scene has them: use stress_passes = 1 (round 69, "
+                                  "docs/fracture.md)")
             self.C_prev = wp.clone(self.C) if on else wp.zeros(1, dtype=self.C.dtype, device=self.device)
             self.C_guess = wp.zeros(self.C.shape[0] if on else 1, dtype=self.C.dtype, device=self.device)
             self._trap_saved = [(n, wp.empty_like(getattr(self, n))) for n in POINT_STATE] if on else []
