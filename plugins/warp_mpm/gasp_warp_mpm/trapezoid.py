@@ -102,7 +102,8 @@ class TrapezoidStress:
         return self.config.stress_at == "trapezoid"
 
     def trap_arrays(self) -> list:
-        """``[C_prev, C_guess]`` for P2G (one entry each when the option is off), allocated once."""
+        """``[C_prev, C_guess]`` for P2G (one entry each when the option is off; ``C_guess`` is ``C`` with one pass),
+        allocated once."""
         if getattr(self, "C_prev", None) is None:
             on = self.trap_on()
             if on and int(self.config.stress_passes) > 1 and (getattr(self, "any_rigid", False)
@@ -112,9 +113,12 @@ class TrapezoidStress:
                                   "stress_at = \"trapezoid\" runs trial substeps that do not restore rigid bodies' "
                                   "or colliders' state; this scene has them: use stress_passes = 1 (round 69, "
                                   "docs/fracture.md)")
+            trials = on and int(self.config.stress_passes) > 1
             self.C_prev = wp.clone(self.C) if on else wp.zeros(1, dtype=self.C.dtype, device=self.device)
-            self.C_guess = wp.zeros(self.C.shape[0] if on else 1, dtype=self.C.dtype, device=self.device)
-            self._trap_saved = [(n, wp.empty_like(getattr(self, n))) for n in POINT_STATE] if on else []
+            # one pass: the guess is C itself (P2G only reads it), no copy a substep, no saved state
+            self.C_guess = (wp.zeros(self.C.shape[0], dtype=self.C.dtype, device=self.device) if trials
+                            else self.C if on else wp.zeros(1, dtype=self.C.dtype, device=self.device))
+            self._trap_saved = [(n, wp.empty_like(getattr(self, n))) for n in POINT_STATE] if trials else []
         return [self.C_prev, self.C_guess]
 
     def trap_sorted(self) -> list:
@@ -123,8 +127,9 @@ class TrapezoidStress:
 
     def trial_passes(self, capturing: bool = False) -> None:
         """Before a substep's launches: ``C_guess`` set to ``C`` (pass 0), then ``stress_passes - 1`` trial
-        substeps from the saved points, each leaving its gathered ``C`` in ``C_guess``."""
-        if not self.trap_on():
+        substeps from the saved points, each leaving its gathered ``C`` in ``C_guess`` (one pass: nothing to do,
+        ``C_guess`` is ``C``)."""
+        if not getattr(self, "_trap_saved", None):
             return
         wp.copy(self.C_guess, self.C)
         for _ in range(int(self.config.stress_passes) - 1):
