@@ -19,7 +19,9 @@ the engine's points (warp_mpm; the rigid ball's points move as one body):
 Cases: ``--contact default`` (the rigid collider, the slab's normals), ``point0`` (``rigid_sdf.POINT_CONTACT``, round
 66's contact per point) and ``point4`` (``GRID_PASSES 4``: round 67's constraint of the grid), each with ``+NAME=VALUE``
 constants of ``rigid_sdf`` (``point4+PATCH=0.25``: round 67's patches; ``+EXACT_SPHERE=1`` the probe
-:func:`exact_sphere`); ``--E`` the slab's Young's modulus
+:func:`exact_sphere`); round 70: ``roll``, the engine option ``roll_contact`` (``gasp_core.mpm.roll_contact``), with
+``+NAME=VALUE`` its constants or warp_mpm's ``rigid_collider.FRICTION`` (``roll+EXACT=0``, ``roll+FRICTION=0``: broken
+variants); ``--E`` the slab's Young's modulus
 (``rigid``: the same slab rigid, the control); ``--mu``; ``--n-grid``; ``--ppc`` the slab's points per cell along an
 axis (2: the scene's); ``--v0`` the ball's speed; ``--radius``; ``--seat`` the ball set on the slab's top points.
 
@@ -143,20 +145,29 @@ def run(contact: str, E, mu: float, n_grid: int = 32, R: float = 0.03, T: float 
         p2g: bool = True, v0: float = 0.5, seat: bool = False, spin: float = 1.0) -> dict:
     """One case's budget (module notes): energies at the first frame and the last (J), the sums, ``c_rr``."""
     import gasp_core.mpm.rigid_sdf as sdf
+    import gasp_core.mpm.roll_contact as roll
+    import gasp_warp_mpm.rigid_collider as wrc
     from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import get_engine
     name, *sets = contact.split("+")
-    consts = {"POINT_CONTACT": name != "default"} | ({"GRID_PASSES": int(name[5:])} if name != "default" else {})
-    consts |= {k: type(getattr(sdf, k, 0))(float(v)) for k, v in (kv.split("=") for kv in sets)}
+    point = name.startswith("point")
+    consts = {"POINT_CONTACT": point} | ({"GRID_PASSES": int(name[5:])} if point else {})
+    mods = {k: sdf for k in consts}
+    for k, v in (kv.split("=") for kv in sets):   # a constant of rigid_sdf, roll_contact or the collider (FRICTION)
+        mod = next((m for m in (roll, wrc) if hasattr(m, k) and not hasattr(sdf, k)), sdf)
+        mods[k], consts[k] = mod, type(getattr(mod, k, 0))(float(v))
     exact = consts.pop("EXACT_SPHERE", 0)   # the probe: the ball's shape an exact sphere (exact_sphere)
-    keep = {k: getattr(sdf, k) for k in consts} | {"body_sdf": sdf.body_sdf}
+    keep = {k: getattr(mods[k], k) for k in consts} | {"body_sdf": sdf.body_sdf}
+    mods["body_sdf"] = sdf
     if exact:
         sdf.body_sdf = exact_sphere(sdf.body_sdf)
     for k, v in consts.items():
-        setattr(sdf, k, v)
+        setattr(mods[k], k, v)
     try:
         slab = "rigid" if E == "rigid" else "elastic"
         s = with_ppc(roll_setup(n_grid, R, v0, mu, slab, spin, seat=seat, E=1.0e5 if E == "rigid" else float(E)), ppc)
+        if name == "roll":   # round 70: the engine option roll_contact
+            s = s.replace(options={**s.options, "roll_contact": True})
         t0 = time.time()
         e = build_engine(get_engine("warp_mpm"), s)
         bud = Budget(s, e, s.materials[1])
@@ -175,7 +186,7 @@ def run(contact: str, E, mu: float, n_grid: int = 32, R: float = 0.03, T: float 
         e.close()
     finally:
         for k, v in keep.items():
-            setattr(sdf, k, v)
+            setattr(mods[k], k, v)
     return {"contact": contact, "E": E, "mu": mu, "n_grid": n_grid, "R": R, "T": T, "ppc": ppc, "dt": dt, "v0": v0,
             "seat": seat, "spin": spin,
             "rows": rows, "seconds": time.time() - t0}

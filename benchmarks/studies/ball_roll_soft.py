@@ -21,6 +21,9 @@ Round 67: ``--set GRID_PASSES=4`` the contact as a constraint of the grid (``PAT
 ``STIFFNESS=1 BIAS=1`` their compliance), ``--seat`` the ball set with its contact's skin on the slab's top points
 (no drop at the start), ``--E`` the slab's Young's modulus.
 
+Round 70: ``--roll`` the engine option ``roll_contact`` (``gasp_core.mpm.roll_contact``: the ball's exact sphere, the
+soft points' patches, friction one impulse a patch; warp_mpm).
+
 Figures: ``docs/rigid.md`` ("Round 65: a ball rolling on a soft slab", "Round 66: the point contact on a ball",
 "Round 67: the point contact as a constraint of the grid").
 """
@@ -90,12 +93,14 @@ def ball_state(X: np.ndarray, V: np.ndarray, R: float) -> tuple[np.ndarray, floa
 
 def measure_roll(engine: str, n_grid: int, R: float = 0.03, v0: float = 0.5, mu: float = 0.5,
                  slab: str = "elastic", T: float = 0.2, spin: float = 1.0, block: bool = False,
-                 seat: bool = False, E: float = 1.0e5) -> dict:
+                 seat: bool = False, E: float = 1.0e5, options: dict | None = None) -> dict:
     """``{"v": (first frame, last), "spin": (first, last) (w R, m/s), "rise": mm}`` of :func:`roll_setup` run for
-    ``T`` s on ``engine``."""
+    ``T`` s on ``engine`` (round 70: with the engine ``options``, e.g. ``{"roll_contact": True}``)."""
     from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import get_engine
     s = roll_setup(n_grid, R, v0, mu, slab, spin, block, seat, E)
+    if options:
+        s = s.replace(options={**s.options, **options})
     nb = int(np.sum(np.asarray(s.body_id) == 0))
     e = build_engine(get_engine(engine), s)
     rows = []
@@ -121,6 +126,8 @@ def main() -> None:
     ap.add_argument("--E", type=float, default=1.0e5, help="round 67: the elastic slab's Young's modulus (Pa)")
     ap.add_argument("--points", type=int, default=None, help="round 66: rigid_sdf.POINT_CONTACT (1 on, 0 off)")
     ap.add_argument("--set", nargs="*", default=[], help="NAME=VALUE on gasp_core.mpm.rigid_sdf (broken variants)")
+    ap.add_argument("--roll", action="store_true", help="round 70: the engine option roll_contact (the exact sphere's "
+                    "contact, gasp_core.mpm.roll_contact)")
     a = ap.parse_args()
     from gasp_core.mpm import rigid_sdf
     if a.points is not None:
@@ -134,7 +141,8 @@ def main() -> None:
         for R in a.radius:
             for slab in a.slab:
                 for mu in a.mu:
-                    r = measure_roll(a.engine, n, R, 0.5, mu, slab, a.T, a.spin, a.block, a.seat, a.E)
+                    r = measure_roll(a.engine, n, R, 0.5, mu, slab, a.T, a.spin, a.block, a.seat, a.E,
+                                     {"roll_contact": True} if a.roll else None)
                     print(f"| {a.engine} | {n} | {100 * R:g} | {slab} | {mu:g} | {r['v'][0]:.3f} -> {r['v'][1]:.3f} "
                           f"| {r['spin'][0]:.3f} -> {r['spin'][1]:.3f} | {r['rise']:+.2f} |", flush=True)
 

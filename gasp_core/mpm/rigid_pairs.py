@@ -75,7 +75,8 @@ def pair_data(setup) -> tuple:
         rc["boxes"] = body_boxes(step_view(setup))
     if rc is not None:   # round 66: the round bodies' point contact (gasp_core.mpm.rigid_sdf)
         from gasp_core.mpm.rigid_sdf import POINT_CONTACT, point_data
-        rc["points"] = point_data(setup, rc["bodies"]) if POINT_CONTACT else None
+        from gasp_core.mpm.roll_contact import on as roll_on   # round 70: the engine option roll_contact
+        rc["points"] = point_data(setup, rc["bodies"]) if POINT_CONTACT or roll_on(setup) else None
     return body_boxes(setup), pair_frictions(setup), rc
 
 

@@ -189,21 +189,31 @@ def point_data(setup, bodies) -> dict:
     """What an engine's point contact reads for the collider's slots (``bodies``, their rigid bodies): ``{"on":
     (n_slots,) int32 (1: a round body, :func:`round_body`), "phi": float32 (all slots' lattices, flat), "grad":
     (n, 3) float32, "origin": (n_slots, 3), "h": (n_slots,), "dims": (4 n_slots,) int32 (each slot's shape and its
-    first voxel), "comp": (n_bodies,) float64 (round 67: each body's points' compliance, m/N, :data:`STIFFNESS`)}``;
-    a body with faces a one-voxel lattice (no contact). All off without :data:`POINT_CONTACT`."""
+    first voxel), "comp": (n_bodies,) float64 (round 67: each body's points' compliance, m/N, :data:`STIFFNESS`),
+    "sphere": (n_slots,) float64 (round 70, the option ``roll_contact``: a sphere's exact radius, m; 0: its lattice),
+    "roll": 1 where the option is on}``;
+    a body with faces a one-voxel lattice (no contact), and a sphere too. All off without :data:`POINT_CONTACT` or
+    ``roll_contact``."""
     from gasp_core.mpm.rigid import body_frames, rigid_mask
+    import gasp_core.mpm.roll_contact as roll
+    rolls = roll.on(setup)   # round 70: the option roll_contact (its round spheres exact: "sphere", m; 0 none)
     bodies = np.asarray(bodies, int)
     body = np.asarray(setup.body_id)
     mass = np.broadcast_to(np.asarray(setup.p_mass, np.float64), body.shape)
     X0 = body_frames(setup.x, mass, body, np.asarray(rigid_mask(setup.materials), bool))[1]
     dx = float((np.asarray(setup.domain_hi, float) - np.asarray(setup.domain_lo, float))[0] / setup.n_grid)
+    vol = np.broadcast_to(np.asarray(setup.p_vol, np.float64), body.shape)
     out = {"on": np.zeros(len(bodies), np.int32), "phi": [], "grad": [], "origin": [], "h": [], "dims": []}
+    sphere = np.zeros(len(bodies), np.float64)
     base = 0
     for i, k in enumerate(bodies):
-        pts = X0[(body == k) & (mass > 0)]
-        on = bool(POINT_CONTACT) and round_body(pts)
+        sel = (body == k) & (mass > 0)
+        pts = X0[sel]
+        on = (bool(POINT_CONTACT) or rolls) and round_body(pts)
         out["on"][i] = int(on)
-        sdf = body_sdf(pts, dx) if on else {"origin": np.zeros(3), "h": 1.0, "phi": np.ones((1, 1, 1)),
+        if on and rolls and roll.EXACT:
+            sphere[i] = roll.sphere_radius(pts, float(vol[sel].sum()), point_spacing(pts))
+        sdf = body_sdf(pts, dx) if on and not sphere[i] else {"origin": np.zeros(3), "h": 1.0, "phi": np.ones((1, 1, 1)),
                                              "grad": np.zeros((1, 1, 1, 3))}
         out["phi"].append(sdf["phi"].reshape(-1))
         out["grad"].append(sdf["grad"].reshape(-1, 3))
@@ -214,6 +224,6 @@ def point_data(setup, bodies) -> dict:
     k = float(STIFFNESS)   # round 67: each body's points' compliance 1 / (STIFFNESS E dx / 2) (0: a hard contact)
     comp = np.asarray([0.0 if k <= 0.0 or m.model == "rigid" else 1.0 / (k * float(m.E) * 0.5 * dx)
                        for m in setup.materials], np.float64)
-    return {"comp": comp, "on": out["on"], "phi": np.concatenate(out["phi"]).astype(np.float32),
+    return {"comp": comp, "on": out["on"], "sphere": sphere, "roll": int(rolls), "phi": np.concatenate(out["phi"]).astype(np.float32),
             "grad": np.concatenate(out["grad"]).astype(np.float32), "origin": np.asarray(out["origin"], np.float64),
             "h": np.asarray(out["h"], np.float64), "dims": np.asarray(out["dims"], np.int32)}

@@ -11,7 +11,8 @@ from dataclasses import dataclass
 import importlib.util
 
 from gasp_core.seam import engine_hook, EngineInfo, install_hint, option
-from gasp_core.seam.config import config_options
+from gasp_core.seam.config import config_options, from_option
+from gasp_core.mpm.roll_contact import ROLL_CONTACT
 from gasp_core.mpm.grid_engine import MPM_CAPABILITIES, grid_substeps
 from gasp_core.mpm.options import MPMConfigCudaIndex
 from gasp_core.mpm.sweep import mpm_sweep
@@ -37,6 +38,7 @@ class WarpMPMConfig(MPMConfigCudaIndex):
                            "CPU's bits), 'gpu' (parallel flag-scan-scatter lists and fixed-block reductions, no "
                            "atomics on a body's row, CG stopped on the device; runs on CPU too) or 'auto' (gpu on "
                            "CUDA, cpu on CPU)", kind="str", choices=("auto", "cpu", "gpu"))
+    roll_contact: bool = from_option(ROLL_CONTACT)
 
 
 #: The options, one per field of :class:`WarpMPMConfig`.

@@ -115,7 +115,10 @@ def _collider_launches(eng, Ft, g2p) -> list:
     points = []
     if eng.rc_pt.numpy().any():   # round 66: the round bodies' contact by the soft points (point_contact.py)
         from gasp_core.mpm.rigid_sdf import GRID_PASSES
-        if GRID_PASSES > 0:   # round 67: the contact as a constraint of the grid velocities (point_grid.py)
+        if eng.rc_points.get("roll", 0):   # round 70: the option roll_contact (roll_grid.py)
+            from .roll_grid import roll_launches
+            points = roll_launches(eng, Ft)
+        elif GRID_PASSES > 0:   # round 67: the contact as a constraint of the grid velocities (point_grid.py)
             from .point_grid import grid_launches
             points = grid_launches(eng, Ft, GRID_PASSES)
         else:

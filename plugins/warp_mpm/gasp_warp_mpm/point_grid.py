@@ -158,7 +158,8 @@ def build_point_grid(Ft):
                 rc_pt: wp.array(dtype=wp.int32), sl: wp.array(dtype=wp.float64), pc_s: wp.array(dtype=wp.int32),
                 pc_n: wp.array(dtype=vec3d), pc_b: wp.array(dtype=wp.float64), ln: wp.array(dtype=wp.float64),
                 lt: wp.array(dtype=vec3d), tw: wp.array(dtype=wp.float64), soft_c: wp.array(dtype=wp.float64),
-                pc_m: wp.array(dtype=Ft), patch: wp.float64, pc_x: wp.array(dtype=vec3d)):
+                pc_m: wp.array(dtype=Ft), patch: wp.float64, pc_x: wp.array(dtype=vec3d),
+                sph: wp.array(dtype=wp.float64), sarm: int):
         """A soft point's slot (``pc_s``: -1 none; the slot whose body's distance at it is least) where it is within
         the skin by the substep's end at its G2P velocity (linearly: ``phi + dt u_n < SKIN dx``), its normal, its
         target ``b`` (``u_n >= b``), its impulses cleared; its weights into ``tw`` (its field's nodes) and its arm
@@ -179,6 +180,27 @@ def build_point_grid(Ft):
                     rb = bodies[sb]
                     best, nb, dlt = patch_least(xp - centre[rb], m, patch, rot[rb], sb, best, nb, phi, grad, org, hs,
                                                 dims)
+            for s in range(ns):   # round 70 (roll_contact): a sphere's exact patch distance (roll_contact.py)
+                if rc_pt[s] != 0 and sph[s] > wp.float64(0.0):
+                    c = centre[bodies[s]]
+                    m = soft_normal(pc_m, off, idx0, fx, n_grid)
+                    q = vec3d(wp.float64(0.0))
+                    if wp.length(m) > wp.float64(0.0) and patch > wp.float64(0.0):
+                        t1 = wp.cross(m, vec3d(wp.float64(1.0), wp.float64(0.0), wp.float64(0.0)))
+                        if wp.abs(m[0]) > wp.float64(0.9):
+                            t1 = wp.cross(m, vec3d(wp.float64(0.0), wp.float64(1.0), wp.float64(0.0)))
+                        t1 = wp.normalize(t1)
+                        t2 = wp.cross(m, t1)
+                        q = wp.clamp(wp.dot(c - xp, t1), -patch, patch) * t1 + wp.clamp(wp.dot(c - xp, t2), -patch,
+                                                                                            patch) * t2
+                    rq = xp + q - c
+                    if wp.length(rq) - sph[s] < best and wp.length(rq) > wp.float64(0.0):
+                        best = wp.length(rq) - sph[s]
+                        sb = s
+                        nb = wp.normalize(rq)
+                        dlt = q
+                        if sarm != 0:   # the arm to the sphere's surface (its contact point; 0: a broken variant)
+                            dlt = c + sph[s] * nb - xp
             pc_x[p] = dlt
             if sb >= 0:
                 vg, B = gather(grid_v, grid_dv, off, W, idx0, n_grid)
@@ -304,13 +326,19 @@ def build_point_grid(Ft):
     return pg_body, pg_mark, pg_pre, pg_pass, pg_node
 
 
-def grid_launches(eng, Ft, passes: int) -> list:
-    """The recorded contact (module notes) after the grid update and ``V*``, before G2P: ``passes`` Jacobi passes."""
+def grid_launches(eng, Ft, passes: int, patch: float | None = None, fric: float | None = None) -> list:
+    """The recorded contact (module notes) after the grid update and ``V*``, before G2P: ``passes`` Jacobi passes
+    (round 70, ``roll_grid.py``: ``patch`` cells and the friction ``fric`` its, else ``rigid_sdf``'s)."""
     from gasp_core.mpm import rigid_sdf
+    import gasp_core.mpm.roll_contact as roll
     from gasp_core.mpm.rigid import affine_dx
     from . import rigid_collider as rc
     from .point_contact import allocate_points
     allocate_points(eng)
+    patch = rigid_sdf.PATCH if patch is None else patch
+    fric = rc.FRICTION if fric is None else fric
+    eng.pg_sph = wp.array(np.asarray(eng.rc_points.get("sphere", np.zeros(eng.rc_ns)), np.float64),
+                          dtype=wp.float64, device=eng.device)
     n, d, ns, ng = eng.n_material, eng.device, eng.rc_ns, eng.n_grid
     eng.pg_sl = wp.zeros(int(NS) * ns, dtype=wp.float64, device=d)
     eng.pg_ln = wp.zeros(n, dtype=wp.float64, device=d)
@@ -329,7 +357,7 @@ def grid_launches(eng, Ft, passes: int) -> list:
             *at, eng.rb_rigid, eng.rc_bodies, ns, eng.rb_c, eng.rb_R, dt, float(rigid_sdf.SKIN * eng.dx),
             float(rigid_sdf.BIAS), eng.pc_phi, eng.pc_grad, eng.pc_org, eng.pc_h, eng.pc_dim, eng.rc_pt, eng.pg_sl,
             eng.pc_s, eng.pc_n, eng.pc_b, eng.pg_ln, eng.pg_lt, eng.pg_tw, eng.pg_c, eng.pc_m,
-            float(rigid_sdf.PATCH * eng.dx), eng.pc_x]),
+            float(patch * eng.dx), eng.pc_x, eng.pg_sph, int(roll.SURFACE_ARM)]),
         wp.launch(pre, dim=n, device=d, record_cmd=True, inputs=[
             eng.x, eng.in_a, lo, Ft(eng.inv_dx), ng, eng.body, eng.rc_bodies, eng.rb_c, eng.rb_M, eng.pg_sl,
             eng.pc_s, eng.pc_n, eng.pg_tw, eng.pc_m, eng.pg_S, eng.grid_dv, eng.pc_x])]
@@ -338,7 +366,7 @@ def grid_launches(eng, Ft, passes: int) -> list:
         out += [
             wp.launch(step, dim=n, device=d, record_cmd=True, inputs=[
                 *at, eng.rc_bodies, eng.rb_c, eng.pg_sl, eng.pc_s, eng.pc_n, eng.pc_b, eng.pg_ln, eng.pg_lt,
-                eng.pg_S, eng.rc_cols, eng.rc_ncol, eng.rc_mus, float(rc.FRICTION), int(rigid_sdf.FRICTION_CAP),
+                eng.pg_S, eng.rc_cols, eng.rc_ncol, eng.rc_mus, float(fric), int(rigid_sdf.FRICTION_CAP),
                 react, eng.pc_g, eng.acc_p, eng.acc_l, eng.pg_c, dt, eng.pc_x]),
             wp.launch(body, dim=ns, device=d, record_cmd=True, inputs=[*bod, 0]),
             wp.launch(node, dim=ng ** 3, device=d, record_cmd=True, inputs=[

@@ -1,0 +1,115 @@
+"""Round 70 (issue 67 items 2 and 4, ``docs/rigid.md`` "Round 70: a ball rolling on a soft body, the exact sphere's
+contact"): the engine option ``roll_contact``, a round rigid body's contact with a soft body as a smooth surface.
+
+Round 69 measured where a rolling ball's energy goes on a jelly slab: not into the slab (its own ``c_rr`` 0.0017 at E
+1e5) but into the contacts. Round 63's band loses the spin (the slab's normals at nodes the ball does not reach);
+round 66/67's point contact reads the slab's points as cobbles (``c_rr ~ s / 8R``), drops the ball 2.9 mm at the
+start (the lattice ball's blurred shape inside its points) and turns a frictionless ball by its facets' normals, and
+its friction per point loses 0.011-0.020 in ``c_rr`` more. The class named there, built here (off by default):
+
+* **the ball's exact shape**: a round rigid body whose points fill a sphere (:func:`sphere_radius`: its principal
+  moments equal, no point beyond the sphere of its declared volume) is that sphere, of the radius its volume gives
+  (``sum p_vol = 4/3 pi R^3``: the radius the scene asked), centred on its mass centre; its distance ``|q| - R`` and
+  normal ``q / |q|`` are exact (no lattice, no facets, no shrink: seated where its points say);
+* **a surface smooth at the lattice's scale**: each soft point is read as its square patch of the soft body's face
+  (half-size :data:`PATCH` cells, half the points' spacing: the patches tile the face), normal to its field's outward
+  normal (round 67's), and the patch's least distance to the sphere is taken exactly (:func:`sphere_patch`): a lattice
+  of points reads as its flat face, a quarter cell (``SKIN``) above the top points;
+* **friction one impulse a patch**: the normal impulses are round 67's constraint of the grid (its Jacobi passes,
+  frictionless); then the tangential impulse is one per contact patch (a rigid body and a soft body, a pair), the
+  patch's mean slip (weighted by the normal impulses) driven to zero by :data:`FRICTION_PASSES` Jacobi steps over the
+  patch's own response (the grid's, the body's at the patch's centre), capped at ``mu`` times the patch's normal
+  impulse, and shared among its points in proportion to their normal impulses (so its moment is the centre's).
+
+The contact's arm (its friction's and its reaction's moment) is the sphere's surface point along the normal, not
+the soft point's patch: the patch lies a quarter cell (``SKIN``) under the slab's face, and an arm there holds the
+ball's velocity at that depth (``v = w (R + s/2)``: the ball slips).
+
+Broken variants for the checks: :data:`EXACT` 0 takes the lattice ball's shape (round 66's ``body_sdf``) for the
+sphere's; :data:`SURFACE_ARM` 0 the arm at the patch; :data:`PATCH_FRICTION` 0 round 67's friction per point;
+``rigid_collider.FRICTION`` 0 no friction.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from gasp_core.seam.options import Option
+
+ROLL_CONTACT = Option(
+    "roll_contact", False, "a round rigid body's contact with a soft body (round 70, docs/rigid.md): the ball's exact "
+    "sphere against each soft point's patch of its body's face, a constraint of the grid velocities, friction one "
+    "impulse a patch; false (the default): round 63's node band (a ball rolling on jelly loses its spin, with "
+    "friction it stops)", kind="bool")
+
+#: Each soft point's patch half-size, cells (a quarter: half the points' spacing at 2 a cell, tiling the face).
+PATCH = 0.25
+#: The normal constraint's Jacobi passes a substep (round 67's ``GRID_PASSES``).
+NORMAL_PASSES = 4
+#: The patch friction's Jacobi passes a substep.
+FRICTION_PASSES = 4
+#: Broken variants: EXACT 0 the lattice ball's shape (``rigid_sdf.body_sdf``) instead of the exact sphere;
+#: PATCH_FRICTION 0 round 67's friction per point (measured: the same figures, docs/rigid.md); SURFACE_ARM 0 the
+#: contact's arm to the soft point's patch (a quarter cell under the slab's face) instead of the sphere's surface:
+#: friction then holds the ball's velocity at that depth, and the ball slips (n_grid 32, R 3 cm, mu 0.5: v 0.509,
+#: w R 0.455 at 0.09 s).
+EXACT = 1
+PATCH_FRICTION = 1
+SURFACE_ARM = 1
+#: A body is a sphere where its principal moments agree within this fraction and no point lies beyond the sphere of
+#: its volume by more than a point spacing.
+SPHERE_TOL = 0.05
+
+
+def on(setup) -> bool:
+    """Whether a setup asks for the option (its ``[engine] options``)."""
+    return bool(dict(getattr(setup, "options", None) or {}).get("roll_contact", False))
+
+
+def sphere_radius(X0: np.ndarray, volume: float, spacing: float) -> float:
+    """The exact sphere of a rigid body's points ``X0`` ((N, 3) m about its mass centre) of total ``volume`` (m^3):
+    its radius ``(3 V / 4 pi)^(1/3)``, or 0.0 where the points do not fill a sphere (principal moments unequal by
+    more than :data:`SPHERE_TOL`, or a point more than ``spacing`` beyond that radius)."""
+    X0 = np.asarray(X0, float)
+    R = float((3.0 * volume / (4.0 * np.pi)) ** (1.0 / 3.0))
+    ev = np.linalg.eigvalsh(np.sum(X0 * X0) * np.eye(3) - X0.T @ X0)
+    if ev[0] <= 0.0 or (ev[-1] - ev[0]) / ev[-1] > SPHERE_TOL:
+        return 0.0
+    if np.linalg.norm(X0, axis=1).max() > R + spacing:
+        return 0.0
+    return R
+
+
+def patch_frame(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit tangents of a patch of normal ``m`` (3,) (as the kernels take them: ``m x e_x``, or ``m x e_y`` near
+    ``e_x``)."""
+    t1 = np.cross(m, [1.0, 0.0, 0.0] if abs(m[0]) <= 0.9 else [0.0, 1.0, 0.0])
+    t1 /= np.linalg.norm(t1)
+    return t1, np.cross(m, t1)
+
+
+def sphere_patch(x: np.ndarray, m: np.ndarray, a: float, c: np.ndarray, R: float) -> tuple[float, np.ndarray,
+                                                                                            np.ndarray]:
+    """``(phi, n, q)``: the square patch centred on ``x`` (3,), normal ``m`` (unit), half-size ``a`` (m), against the
+    sphere of centre ``c``, radius ``R``: the least distance over the patch (the patch's point ``x + q`` nearest the
+    centre: the centre's projection onto its plane, clamped to the square), the sphere's outward normal there.
+    ``m`` zero: the point itself."""
+    x, c = np.asarray(x, float), np.asarray(c, float)
+    q = np.zeros(3)
+    if np.linalg.norm(m) > 0.0 and a > 0.0:
+        t1, t2 = patch_frame(np.asarray(m, float))
+        q = np.clip((c - x) @ t1, -a, a) * t1 + np.clip((c - x) @ t2, -a, a) * t2
+    r = x + q - c
+    d = float(np.linalg.norm(r))
+    return d - R, r / max(d, 1e-300), q
+
+
+def patch_friction(mu: float, lam: np.ndarray, ut: np.ndarray, S: float, J: np.ndarray) -> np.ndarray:
+    """One Jacobi step of a patch's friction (module notes): the points' normal impulses ``lam`` (N,), their slips
+    ``ut`` (N, 3), the patch's response ``S`` (m/s per kg m/s), its impulse so far ``J`` (3,): the new ``J``, capped at
+    ``mu sum(lam)``."""
+    L = float(np.sum(lam))
+    if L <= 0.0:
+        return np.zeros(3)
+    J1 = np.asarray(J, float) - (np.asarray(lam) @ np.asarray(ut)) / L / S
+    n = float(np.linalg.norm(J1))
+    return J1 * (mu * L / n) if n > mu * L else J1
