@@ -31,6 +31,9 @@ gather, residual and scatter over the touching points, each step over a row-sum 
 G2P a touching point does not approach (round 66's contact per point let a soft body creep through a ball under it);
 :data:`PATCH` reads each soft point as its patch of the soft body's surface, :data:`STIFFNESS` gives it a compliance.
 Measured: ``docs/rigid.md`` "Round 67: the point contact as a constraint of the grid".
+
+Round 70: the engine option ``roll_contact`` (:mod:`gasp_core.mpm.roll_contact`) turns this contact on for round
+bodies with a sphere's exact shape (``point_data``'s ``sphere``), the patches, and friction one impulse a patch.
 """
 from __future__ import annotations
 

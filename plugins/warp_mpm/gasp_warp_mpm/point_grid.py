@@ -181,8 +181,9 @@ def build_point_grid(Ft):
                     best, nb, dlt = patch_least(xp - centre[rb], m, patch, rot[rb], sb, best, nb, phi, grad, org, hs,
                                                 dims)
             for s in range(ns):   # round 70 (roll_contact): a sphere's exact patch distance (roll_contact.py)
-                if rc_pt[s] != 0 and sph[s] > wp.float64(0.0):
-                    c = centre[bodies[s]]
+                c = centre[bodies[s]]   # a point farther than the skin, its patch and a cell (4 patches) cannot touch
+                if rc_pt[s] != 0 and sph[s] > wp.float64(0.0) and wp.length(xp - c) < sph[s] + skin + wp.float64(
+                        6.0) * patch:
                     m = soft_normal(pc_m, off, idx0, fx, n_grid)
                     q = vec3d(wp.float64(0.0))
                     if wp.length(m) > wp.float64(0.0) and patch > wp.float64(0.0):
