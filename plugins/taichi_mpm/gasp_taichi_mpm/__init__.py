@@ -19,7 +19,8 @@ import dataclasses
 from dataclasses import dataclass
 
 from gasp_core.seam import engine_hook, EngineInfo, option
-from gasp_core.seam.config import config_options
+from gasp_core.seam.config import config_options, from_option
+from gasp_core.mpm.roll_contact import ROLL_CONTACT
 from gasp_core.mpm.grid_engine import MPM_CAPABILITIES, grid_substeps
 from gasp_core.mpm.options import MPMConfig
 from gasp_core.mpm.sweep import mpm_sweep
@@ -64,6 +65,7 @@ class TaichiMPMConfig(MPMConfig):
     pin_threads: bool = option(True, "pin each CPU worker thread to its own core (Linux; 2 threads or more, no more "
                                "than the allowed cores): left to the scheduler, the workers often share one core "
                                "(docs/performance.md); the numbers are the same either way", kind="bool")
+    roll_contact: bool = from_option(ROLL_CONTACT)
 
 
 #: The options, one per field of :class:`TaichiMPMConfig`.

@@ -10,20 +10,27 @@ import numpy as np
 import taichi as ti
 
 from .collider_pair import NA
+from .roll_grid import RollGrid
 
 #: The floats of a slot in ``pg_sl`` (warp_mpm's ``point_grid.NS`` layout).
 NS = 32
 
 
 @ti.data_oriented
-class PointGrid:
-    """The grid constraint's fields and kernels (``pg_on`` False: round 66's contact per point)."""
+class PointGrid(RollGrid):
+    """The grid constraint's fields and kernels (``pg_on`` False: round 66's contact per point); round 70's option
+    ``roll_contact`` (``pg_roll``: the spheres' exact patches in ``pg_mark``, the patch friction of ``roll_grid.py``)."""
 
     pg_on = False
+    pg_roll = False
+    pg_fmul = 1.0
+    pg_sarm = 1
 
     def allocate_grid(self, points) -> None:
         from gasp_core.mpm import rigid_sdf
-        self.pg_passes = int(rigid_sdf.GRID_PASSES)
+        import gasp_core.mpm.roll_contact as roll
+        self.pg_roll = bool(points.get("roll", 0))   # round 70 (roll_grid.py)
+        self.pg_passes = int(roll.NORMAL_PASSES) if self.pg_roll else int(rigid_sdf.GRID_PASSES)
         self.pg_on = self.pg_passes > 0
         if not self.pg_on:
             return
@@ -33,7 +40,14 @@ class PointGrid:
         self.pg_lt = ti.Vector.field(3, ti.f64, shape=n)
         self.pg_S = ti.Vector.field(2, ti.f64, shape=n)
         self.pg_tw = ti.field(ti.f64, shape=(2, ng, ng, ng))
-        self.pg_patch = float(rigid_sdf.PATCH)
+        self.pg_patch = float(roll.PATCH if self.pg_roll else rigid_sdf.PATCH)
+        self.pg_sph = ti.field(ti.f64, shape=ns)   # round 70: a sphere's exact radius (0: its lattice)
+        self.pg_sph.from_numpy(np.asarray(points.get("sphere", np.zeros(ns)), np.float64))
+        self.pg_sarm = int(roll.SURFACE_ARM)
+        self.pg_pf = self.pg_roll and bool(roll.PATCH_FRICTION)
+        self.pg_fmul = 0.0 if self.pg_pf else 1.0   # the normal passes frictionless under the patch friction
+        if self.pg_pf:
+            self.allocate_roll()
         comp = np.asarray(points["comp"], np.float64)   # the points' compliance (rigid_sdf.STIFFNESS)
         self.pg_c = ti.field(ti.f64, shape=len(comp))
         self.pg_c.from_numpy(comp)
@@ -112,6 +126,8 @@ class PointGrid:
                                 best = d
                                 nb = (R @ g).normalized()
                                 dlt = q
+                if ti.static(self.pg_roll):   # round 70: a sphere's exact patch distance (roll_grid.py)
+                    best, sb, nb, dlt = self.rg_sphere(xp, base, fx, w, f, skin, best, sb, nb, dlt)
                 self.pc_x[p] = dlt
                 if sb >= 0:
                     v = ti.Vector.zero(self.real, 3)
@@ -181,7 +197,7 @@ class PointGrid:
                 l1 = ti.max(l0 - (un - self.pc_b[p] + c * l0) / (self.pg_S[p][0] + c), 0.0)
                 t0 = self.pg_lt[p]
                 t1 = t0 - (u - un * n) / self.pg_S[p][1]
-                mu = self.rc_friction * self.rc_mus[s * self.rc_ncol + self.rc_cols[self.body[p]]]
+                mu = self.rc_friction * self.pg_fmul * self.rc_mus[s * self.rc_ncol + self.rc_cols[self.body[p]]]
                 tl = t1.norm()
                 if ti.static(self.pc_cap != 0):
                     if tl > mu * l1 and tl > 0.0:
@@ -229,3 +245,5 @@ class PointGrid:
             self.pg_pass()
             self.pg_body(0)
             self.pg_node()
+        if self.pg_pf:   # round 70: friction one impulse a patch (roll_grid.py)
+            self.roll_friction()
