@@ -154,7 +154,7 @@ def run(contact: str, E, mu: float, n_grid: int = 32, R: float = 0.03, T: float 
     consts = {"POINT_CONTACT": point} | ({"GRID_PASSES": int(name[5:])} if point else {})
     mods = {k: sdf for k in consts}
     for k, v in (kv.split("=") for kv in sets):   # a constant of rigid_sdf, roll_contact or the collider (FRICTION)
-        mod = next((m for m in (roll, wrc) if hasattr(m, k) and not hasattr(sdf, k)), sdf)
+        mod = next(m for m in ((roll, sdf, wrc) if name == "roll" else (sdf, roll, wrc)) if hasattr(m, k))
         mods[k], consts[k] = mod, type(getattr(mod, k, 0))(float(v))
     exact = consts.pop("EXACT_SPHERE", 0)   # the probe: the ball's shape an exact sphere (exact_sphere)
     keep = {k: getattr(mods[k], k) for k in consts} | {"body_sdf": sdf.body_sdf}

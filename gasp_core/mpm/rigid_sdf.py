@@ -224,7 +224,8 @@ def point_data(setup, bodies) -> dict:
         out["h"].append(sdf["h"])
         out["dims"] += [*sdf["phi"].shape, base]
         base += sdf["phi"].size
-    k = float(STIFFNESS)   # round 67: each body's points' compliance 1 / (STIFFNESS E dx / 2) (0: a hard contact)
+    # round 67: each body's points' compliance 1 / (STIFFNESS E dx / 2) (0: a hard contact); round 70: the option's own
+    k = float(roll.STIFFNESS if rolls else STIFFNESS)
     comp = np.asarray([0.0 if k <= 0.0 or m.model == "rigid" else 1.0 / (k * float(m.E) * 0.5 * dx)
                        for m in setup.materials], np.float64)
     return {"comp": comp, "on": out["on"], "sphere": sphere, "roll": int(rolls), "phi": np.concatenate(out["phi"]).astype(np.float32),

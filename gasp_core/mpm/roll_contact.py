@@ -15,6 +15,8 @@ its friction per point loses 0.011-0.020 in ``c_rr`` more. The class named there
   (half-size :data:`PATCH` cells, half the points' spacing: the patches tile the face), normal to its field's outward
   normal (round 67's), and the patch's least distance to the sphere is taken exactly (:func:`sphere_patch`): a lattice
   of points reads as its flat face, a quarter cell (``SKIN``) above the top points;
+* **the soft points' compliance** (:data:`STIFFNESS`, round 67's): each touching point gives as its cube of material
+  would, ``k = E s``, solved implicitly in the normal passes (the gap closed by the spring);
 * **friction one impulse a patch**: the normal impulses are round 67's constraint of the grid (its Jacobi passes,
   frictionless); then the tangential impulse is one per contact patch (a rigid body and a soft body, a pair), the
   patch's mean slip (weighted by the normal impulses) driven to zero by :data:`FRICTION_PASSES` Jacobi steps over the
@@ -47,6 +49,10 @@ PATCH = 0.25
 NORMAL_PASSES = 4
 #: The patch friction's Jacobi passes a substep.
 FRICTION_PASSES = 4
+#: Each soft point's own compliance in the contact, ``k = STIFFNESS E s`` (round 67's ``rigid_sdf.STIFFNESS``, here the
+#: option's: ``rigid_sdf.point_data``'s ``comp``): the sub-grid give of its cube of material. 0: a hard contact
+#: (measured, n_grid 32-48, R 3 / 4.5 cm, E 1e5: frictionless speed -4.2 to -5.8 % in 0.2 s; with 1: -2.6 to -3.6 %).
+STIFFNESS = 1.0
 #: Broken variants: EXACT 0 the lattice ball's shape (``rigid_sdf.body_sdf``) instead of the exact sphere;
 #: PATCH_FRICTION 0 round 67's friction per point (measured: the same figures, docs/rigid.md); SURFACE_ARM 0 the
 #: contact's arm to the soft point's patch (a quarter cell under the slab's face) instead of the sphere's surface:
