@@ -135,6 +135,15 @@ def test_with_the_roll_contact_a_ball_rolls_on_jelly(n_grid, R, mu):
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("n_grid,R,mu", [(32, 0.045, 0.0), (32, 0.045, 0.5), (48, 0.03, 0.0), (48, 0.03, 0.5),
+                                         (48, 0.045, 0.0), (48, 0.045, 0.5)])
+def test_with_the_roll_contact_a_ball_rolls_on_jelly_taichi_mpm(n_grid, R, mu):
+    """The rows above on taichi_mpm (n_grid 32, R 3 cm: ``test_taichi_mpm_rolls_as_warp_mpm``; measured: warp_mpm's
+    digits on every row)."""
+    assert _keeps(_roll(n_grid, R, mu, engine="taichi_mpm")), (n_grid, R, mu)
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize("consts", [{"EXACT": 0}, {"SURFACE_ARM": 0}, {"STIFFNESS": 0.0, "R": 0.045}])
 def test_the_roll_check_catches_broken_contacts(consts):
     """The catches, on rows that keep 5 % (n_grid 32, R 3 cm, mu 0.5; the third R 4.5 cm, frictionless): the
