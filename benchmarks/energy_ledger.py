@@ -46,18 +46,19 @@ nodes' work moved, above); ``balance = K4 - K5``; ``g2p = K5 - Ep'``; ``plastic`
 snow): the returned stress's work on the return's log strain, over the points whose model returns (brittle points
 broken through, every sand point: the Drucker-Prager return; every snow point: the clamp; :meth:`Ledger.plastic`);
 ``hardening`` (round 56): snow's stored energy's change with ``Jp`` at the returned ``F`` (:meth:`Ledger.hardening`);
-``gradient`` (round 70, a diagnostic, off by default: ``Ledger(gradient=True)``, under ``stress_at = "trapezoid"``
-alone, :meth:`Ledger.gradient`): the stored energy of the part of ``F``'s increment that the grid never carried. The stress's force on the nodes does ``-V tau : C(u)`` of work on
-a node velocity field ``u`` (``C(u)`` its APIC gather at the point, :func:`gather_C`), so a substep's stress works on
-``(C~ + C_1) / 2``, ``C~`` the gather of the free P2G's velocity (the point's own gradient ``C_0`` through the round
-trip of the transfers) and ``C_1`` the one G2P gives; the trapezoid's increment takes ``(C_0 + C_1) / 2``, the point's
-own ``C_0``: the stored energy of the difference, ``psi((I + dt (C_0 + C_1) / 2) F) - psi((I + dt (C~ + C_1) / 2) F)``
-(negative: a loss, booked positive) is no stress's work. Round 70 measured it 3.20 % of the energy brought, lost, on
-the ball at n_grid 32 and 4.43 m/s, where the elastic term ends -3.19 % without it and 0.01 % with it: the closing
-sum's failure under the trapezoid is this term, not the owed increment. It is not booked by default because it is not
-shown to be a sink: on the free bar (``free_vibration.py --ledger --gradient``) it books 0.99 % (cfl 0.8; 0.25 % at
-0.4, growing as ``dt^2``) that the bar does not lose (its elastic term ends 0.31 % without it, 1.31 % with it;
-docs/fracture.md "Round 70"). Under "start" the increment takes ``C_1`` alone (nothing to book).
+``gradient`` (round 70, under ``stress_at = "trapezoid"`` alone, :meth:`Ledger.gradient`): the stress's work on
+the part of ``F``'s increment that the grid never carried. The stress's force on the nodes does ``-V tau : C(u)`` of
+work on a node velocity field ``u`` (``C(u)`` its APIC gather at the point, :func:`gather_C`), so a substep's stress
+works on ``(C~ + C_1) / 2``, ``C~`` the gather of the free P2G's velocity (the point's own gradient ``C_0`` through the
+transfers' round trip) and ``C_1`` the one G2P gives; the trapezoid's increment takes ``(C_0 + C_1) / 2``, the point's
+own ``C_0``, and its stored energy rises by the scattered stress's work on that (the midpoint rule). The difference,
+``dt V tau_s : (C~ - C_0) / 2`` (``tau_s`` the engine's scattered stress, the midpoint's ``tau(H F) H^-T``), is no
+stress's work on the grid: booked here (positive: lost). Round 70 (``free_vibration.py --ledger``, the family):
+3.37 % of the energy brought lost on the ball at n_grid 32 and 4.43 m/s (the elastic term ends -3.19 % without it,
++0.18 % with it); 0.006 % on the free bar at cfl 0.8, whose elastic term ends 0.32 % with it (the one-pass guess's
+offset), 0.000 % with 3 passes. The stored energy's difference instead of this work (``psi`` of the two increments)
+books 0.99 % on the free bar that it does not lose: its second-order part is no work. Under "start" the increment takes
+``C_1`` alone (nothing to book).
 The two untraced terms, zero for an integrator that conserves energy: ``elastic = W_stress + dpsi + dD + plastic +
 hardening`` (the stress's work on the grid against the stored energy's rise, the damage's dissipation and the
 return's) and ``gravity = W_gravity + dPE``. With them the sinks sum to the drop of ``E = Ep + psi + U + PE + D`` (an
@@ -190,6 +191,18 @@ class Stored:
         sd = ft * sfp / ((1 - np.minimum(d, 1)) * (sfp - ft) + ft)
         return 0.5 * v0 * (sc * eps).sum(1), v0 * ft * sd * d / (2 * E)
 
+    def tau(self, F) -> np.ndarray:
+        """The Kirchhoff stress (Pa, (n, 3, 3)) of the hyperelastic models the trapezoid advances, the engines'
+        (``constitutive.py``): fixed corotated ``2 mu (F - R) F^T + lam J (J - 1) I`` (jelly), neo-Hookean ``mu (F
+        F^T - I) + lam log(J) I``."""
+        J = np.linalg.det(F)
+        if self.kind == "neo_hookean":
+            return self.mu * (np.einsum("nij,nkj->nik", F, F) - np.eye(3)) + (self.lam * np.log(J))[:, None, None] \
+                * np.eye(3)
+        U, _s, Vt = np.linalg.svd(F)
+        return 2 * self.mu * np.einsum("nij,nkj->nik", F - U @ Vt, F) + (self.lam * J * (J - 1))[:, None, None] \
+            * np.eye(3)
+
     def returns(self, Jp) -> np.ndarray:
         """The points whose model returns ``F`` this substep (bool, (n,)), from their ``Jp`` before it: brittle
         points broken through (``d >= 1``: the cohesionless sand's Drucker-Prager return); every sand, metal and
@@ -309,12 +322,12 @@ class Ledger:
     ledger before round 56); ``held_end``: the held nodes' work at their end velocity (module notes; None: under the
     grid contact). ``owed``: the share of ``F``'s owed increment booked in ``psi`` (a key of :data:`OWED`; None: the
     engine's scheme's, "whole" under ``stress_at = "trapezoid"``, else nothing; module notes); ``gradient``: the
-    trapezoid's ``gradient`` term booked as a sink (:meth:`gradient`; a diagnostic, off by default). Raises
+    trapezoid's ``gradient`` sink booked (:meth:`gradient`; False: the catch, round 69's ledger). Raises
     ``AssertionError`` on a warp_mpm engine with a viscous material or a time table (their steps are not split
     here)."""
 
     def __init__(self, setup, engine, material, ground=(0.0, 0.0), plastic: bool = True, held_end=None,
-                 owed: str | None = None, gradient: bool = False):
+                 owed: str | None = None, gradient: bool = True):
         from gasp_core.mpm.contact import contact_model
         from gasp_core.mpm.grid_origin import ground_on_node
         setup = ground_on_node(setup)   # the engines' grid: a ground on a node layer under the grid contact (round 56)
@@ -327,6 +340,7 @@ class Ledger:
         self.owed = (owed or "whole") if trap else "none"
         assert self.owed in OWED, self.owed
         self.trap_gradient = trap and gradient
+        self.passes = int(getattr(getattr(engine, "config", None), "stress_passes", 1))
         self.ground = ground if contact_model(setup) == "particle" else None
         self.held_end = contact_model(setup) != "particle" if held_end is None else held_end
         self.kc = self.steps.coefficients()   # the engine's own (k, c, skin) per point, its order
@@ -408,19 +422,18 @@ class Ledger:
         return float(st.points(F1, p0["Jp"], v0, x)[0].sum() - st.points(F1, p1["Jp"], v0, x)[0].sum())
 
     def gradient(self, Ct: np.ndarray, p1: dict) -> float:
-        """The trapezoid's ``gradient`` sink of a substep (J; module notes): ``psi`` of ``F`` (``p1``'s) advanced by
-        the increment the next P2G takes, ``dt (C_prev + C) / 2``, less that of ``F`` advanced by ``dt (C~ + C) / 2``,
-        ``C~`` (n, 3, 3) the gather of this substep's free P2G velocity at the points (``C_prev`` is the ``C`` this
-        substep's P2G read); booked positive when lost. Zero but under the trapezoid."""
+        """The trapezoid's ``gradient`` sink of a substep (J; module notes): ``dt sum V tau_s : (C~ - C_prev) / 2``,
+        ``C~`` (n, 3, 3) the gather of this substep's free P2G velocity at the points, ``C_prev`` (``p1``'s) the ``C``
+        this substep's P2G read, ``tau_s`` the stress it scattered, ``tau(H F) H^-T`` of ``p1``'s ``F`` with ``H = I +
+        dt/2 C_prev`` (one pass; with more, ``C_prev`` and ``C`` averaged: the converged guess). Zero but under the
+        trapezoid."""
         if not self.trap_gradient:
             return 0.0
-        F, C1 = p1["F"].reshape(-1, 3, 3), p1["C"].reshape(-1, 3, 3)
-        I, h = np.eye(3), 0.5 * self.dt
-        Fa = np.einsum("nij,njk->nik", I + h * (p1["C_prev"].reshape(-1, 3, 3) + C1), F)
-        Fb = np.einsum("nij,njk->nik", I + h * (Ct + C1), F)
-        st = self.stored
-        return float(st.points(Fb, p1["Jp"], p1["v0"], p1["x"])[0].sum()
-                     - st.points(Fa, p1["Jp"], p1["v0"], p1["x"])[0].sum())
+        F, C0, C1 = (p1[k].reshape(-1, 3, 3) for k in ("F", "C_prev", "C"))
+        H = np.eye(3) + 0.5 * self.dt * (C0 if self.passes == 1 else 0.5 * (C0 + C1))
+        tau = self.stored.tau(np.einsum("nij,njk->nik", H, F))
+        ts = np.einsum("nij,nkj->nik", tau, np.linalg.inv(H))   # tau H^-T
+        return 0.5 * self.dt * float(np.einsum("n,nij,nij->", p1["v0"], ts, Ct - C0))
 
     def step(self) -> dict:
         """One substep; appends and returns its row (module notes; ``E`` the total after it, ``mass_err`` the

@@ -90,7 +90,7 @@ def run(body: str, engine: str, n_grid: int, v: float, ms: float, cfl: float | N
         gravity_scale: float = 1.0, stiffness_scale: float = 1.0, every_ms: float = 5.0,
         damping: float | None = None, flip: float | None = None, parts: bool = False, rule: str | None = None,
         stress_at: str | None = None, friction: float | None = None, passes: int | None = None,
-        owed: str | None = None, gradient: bool = False) -> dict:
+        owed: str | None = None, gradient: bool = True) -> dict:
     """One landing's ledger (module notes): sums of the sinks, the energy left, and a row every ``every_ms``.
     Prototypes, off by default (None): ``damping``, the particle contact's damping ratio
     (``gasp_core.mpm.contact.DAMPING``, 0.5) for this run; ``flip``, the engines' AFLIP option; ``rule``, the
@@ -98,8 +98,8 @@ def run(body: str, engine: str, n_grid: int, v: float, ms: float, cfl: float | N
     (``gasp_core.mpm.stress_at``, round 68); ``friction``, the ground's friction for this run (round 68's split of the
     donut's gain); ``passes``, warp_mpm's trial passes under ``stress_at = "trapezoid"`` (round 69,
     the engines' option ``stress_passes``); ``owed``, the ledger's booking of ``F``'s owed increment under the
-    trapezoid (``energy_ledger.OWED``; None: the scheme's, round 70); ``gradient``: the trapezoid's ``gradient``
-    term booked as a sink (``energy_ledger.Ledger.gradient``, a diagnostic, round 70). ``parts``: also the
+    trapezoid (``energy_ledger.OWED``; None: the scheme's, round 70); ``gradient`` False: the trapezoid's
+    ``gradient`` sink unbooked (``energy_ledger.Ledger.gradient``; the catch, round 70). ``parts``: also the
     parts of 1 % of the mass or more at the end (``gasp_core.testing.pieces_count.FramePieces``)."""
     import gasp_core.mpm.contact as gc
     from gasp_core.seam.build import build_engine
@@ -150,7 +150,7 @@ def log_run(r: dict) -> None:
 
 
 def _run(setup, body, engine, n_grid, v, ms, cfl, gravity_scale, stiffness_scale, every_ms, parts, owed=None,
-         gradient=False) -> dict:
+         gradient=True) -> dict:
     from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import engines
     material = setup.materials[0]

@@ -16,7 +16,7 @@ two periods: the worst ``|elastic + c dpsi|`` (% of ``E0``; ``dpsi`` the substep
 step: ``F`` advances by the substep's mean gradient at the next P2G, so the stored energy lags the stress's work by one
 increment). Round 70: under the trapezoid the ledger books that owed increment (``energy_ledger.OWED``), so its
 ``c`` 0 column is round 69's ``c`` 1; ``--owed whole,half,none`` compares the bookings (none: round 69's ledger);
-``--gradient`` books the ledger's diagnostic ``gradient`` term too (``energy_ledger.Ledger.gradient``).
+``--no-gradient`` leaves the ledger's ``gradient`` sink unbooked (``energy_ledger.Ledger.gradient``).
 
 Run: ``python benchmarks/studies/free_vibration.py [--engines warp_mpm,taichi_mpm] [--cfl 0.4,0.8]
 [--at start,mid,trapezoid] [--n-grid 32] [--passes 1,3] [--ledger]`` (one JSON line a run, then a markdown table).
@@ -100,7 +100,7 @@ def run(engine: str, n_grid: int, cfl: float, at: str, passes: int) -> dict:
 
 
 def offsets(engine: str, n_grid: int, cfl: float, at: str, passes: int, owed: str | None = None,
-            gradient: bool = False) -> dict:
+            gradient: bool = True) -> dict:
     """The worst ``|elastic + c dpsi|`` of the ledger over two periods (module notes), % of ``E0``; ``owed``: the
     ledger's booking of ``F``'s owed increment under the trapezoid (``energy_ledger.OWED``; None: the scheme's)."""
     from energy_ledger import Ledger, total
@@ -144,8 +144,8 @@ def main(argv=None) -> int:
     ap.add_argument("--ledger", action="store_true", help="the ledger's offsets instead (module notes)")
     ap.add_argument("--owed", default=None, help="with --ledger: the ledger's booking of F's owed increment under "
                     "the trapezoid, a comma list of whole, half, none (default: the scheme's, whole; round 70)")
-    ap.add_argument("--gradient", action="store_true", help="with --ledger: the trapezoid's gradient term booked "
-                    "as a sink (energy_ledger.Ledger.gradient, a diagnostic; round 70)")
+    ap.add_argument("--no-gradient", dest="gradient", action="store_false", help="with --ledger: the trapezoid's "
+                    "gradient sink left unbooked (energy_ledger.Ledger.gradient; round 69's ledger)")
     a = ap.parse_args(argv)
     if a.ledger:
         print("| engine | cfl | stress_at | owed booked | worst, c 0 | c 1/2 | c 1 | elastic term at the end |")
