@@ -49,14 +49,17 @@ broken through, every sand point: the Drucker-Prager return; every snow point: t
 ``gradient`` (round 70, under ``stress_at = "trapezoid"`` alone, :meth:`Ledger.gradient`): the stress's work on
 the part of ``F``'s increment that the grid never carried. The stress's force on the nodes does ``-V tau : C(u)`` of
 work on a node velocity field ``u`` (``C(u)`` its APIC gather at the point, :func:`gather_C`), so a substep's stress
-works on ``(C~ + C_1) / 2``, ``C~`` the gather of the free P2G's velocity (the point's own gradient ``C_0`` through the
-transfers' round trip) and ``C_1`` the one G2P gives; the trapezoid's increment takes ``(C_0 + C_1) / 2``, the point's
-own ``C_0``, and its stored energy rises by the scattered stress's work on that (the midpoint rule). The difference,
-``dt V tau_s : (C~ - C_0) / 2`` (``tau_s`` the engine's scattered stress, the midpoint's ``tau(H F) H^-T``), is no
-stress's work on the grid: booked here (positive: lost). Round 70 (``free_vibration.py --ledger``, the family):
-3.37 % of the energy brought lost on the ball at n_grid 32 and 4.43 m/s (the elastic term ends -3.19 % without it,
-+0.18 % with it); 0.006 % on the free bar at cfl 0.8, whose elastic term ends 0.32 % with it (the one-pass guess's
-offset), 0.000 % with 3 passes. The stored energy's difference instead of this work (``psi`` of the two increments)
+works on ``(C~ + C^) / 2``, ``C~`` the gather of the free P2G's velocity (the point's own gradient ``C_0`` through the
+transfers' round trip) and ``C^`` that of the grid's velocity after the kick, before the grid's rule and friction;
+the trapezoid's increment takes ``(C_0 + C_1) / 2``, the point's own ``C_0`` and the ``C_1`` G2P gives after the rule
+and friction, and its stored energy rises by the scattered stress's work on that (the midpoint rule). The difference,
+``dt V tau_s : ((C~ - C_0) + (C^ - C_1)) / 2`` (``tau_s`` the engine's scattered stress, the midpoint's ``tau(H F)
+H^-T``), is no stress's work on the grid: booked here (positive: lost). Round 70 (``free_vibration.py --ledger``, the
+family): 3.37 % of the energy brought lost on the ball at n_grid 32 and 4.43 m/s (the elastic term ends -3.19 %
+without it, +0.18 % with it); 0.62 % on the README jelly donut at cfl 0.8 (ground friction 0.5; its ``C^ - C_1`` part
+is the friction's; +0.33 % at the end with it, -0.29 % without, and its gain read 0.37 %: 1.76 % with the first part
+alone); 0.006 % on the free bar at cfl 0.8, whose elastic term ends 0.32 % with it (the one-pass guess's offset),
+0.000 % with 3 passes. The stored energy's difference instead of this work (``psi`` of the two increments)
 books 0.99 % on the free bar that it does not lose: its second-order part is no work. Under "start" the increment takes
 ``C_1`` alone (nothing to book).
 The two untraced terms, zero for an integrator that conserves energy: ``elastic = W_stress + dpsi + dD + plastic +
@@ -421,10 +424,11 @@ class Ledger:
         F1, v0, x = p1["F"].reshape(-1, 3, 3), p1["v0"], p1["x"]
         return float(st.points(F1, p0["Jp"], v0, x)[0].sum() - st.points(F1, p1["Jp"], v0, x)[0].sum())
 
-    def gradient(self, Ct: np.ndarray, p1: dict) -> float:
-        """The trapezoid's ``gradient`` sink of a substep (J; module notes): ``dt sum V tau_s : (C~ - C_prev) / 2``,
-        ``C~`` (n, 3, 3) the gather of this substep's free P2G velocity at the points, ``C_prev`` (``p1``'s) the ``C``
-        this substep's P2G read, ``tau_s`` the stress it scattered, ``tau(H F) H^-T`` of ``p1``'s ``F`` with ``H = I +
+    def gradient(self, Ct: np.ndarray, Cb: np.ndarray, p1: dict) -> float:
+        """The trapezoid's ``gradient`` sink of a substep (J; module notes): ``dt sum V tau_s : ((C~ - C_prev) + (C^ -
+        C)) / 2``, ``C~`` and ``C^`` (n, 3, 3) the gathers at the points of this substep's free P2G velocity and of
+        the grid's velocity after the P2G's impulses (before the grid's rule and friction), ``C_prev`` (``p1``'s) the
+        ``C`` this substep's P2G read and ``C`` the one G2P gave, ``tau_s`` the stress it scattered, ``tau(H F) H^-T`` of ``p1``'s ``F`` with ``H = I +
         dt/2 C_prev`` (one pass; with more, ``C_prev`` and ``C`` averaged: the converged guess). Zero but under the
         trapezoid."""
         if not self.trap_gradient:
@@ -433,7 +437,7 @@ class Ledger:
         H = np.eye(3) + 0.5 * self.dt * (C0 if self.passes == 1 else 0.5 * (C0 + C1))
         tau = self.stored.tau(np.einsum("nij,njk->nik", H, F))
         ts = np.einsum("nij,nkj->nik", tau, np.linalg.inv(H))   # tau H^-T
-        return 0.5 * self.dt * float(np.einsum("n,nij,nij->", p1["v0"], ts, Ct - C0))
+        return 0.5 * self.dt * float(np.einsum("n,nij,nij->", p1["v0"], ts, (Ct - C0) + (Cb - C1)))
 
     def step(self) -> dict:
         """One substep; appends and returns its row (module notes; ``E`` the total after it, ``mass_err`` the
@@ -468,7 +472,8 @@ class Ledger:
         p1 = self.steps.points()
         E1 = self.energy(p1)
         d = {k: E1[k] - E0[k] for k in ("psi", "D", "U", "PE")}
-        plastic, hard, grad = self.plastic(p0, p1), self.hardening(p0, p1), self.gradient(Ct, p1)
+        Cb = gather_C(p0["x"], vg, self.lo, self.dx, self.ng) if self.trap_gradient else None   # after the kick
+        plastic, hard, grad = self.plastic(p0, p1), self.hardening(p0, p1), self.gradient(Ct, Cb, p1)
         row = {"p2g": E0["Ep"] - K0, "contact": -Wc - d["U"], "rule": K3 - K4 - fric + moved, "friction": fric,
                "balance": K4 - K5,
                "g2p": K5 - E1["Ep"], "plastic": plastic, "hardening": hard, "gradient": grad,
