@@ -24,6 +24,20 @@ are read between them; nothing in an engine changes. Per substep (energies in J;
   (mu sum (s_i - 1)^2 + lam (J - 1)^2 / 2)``; sand Hencky's ``V0 (mu |e|^2 + lam tr(e)^2 / 2)``; snow fixed
   corotated times ``exp(xi (1 - Jp))``; brittle: the carried Hencky energy and the damage's dissipation ``D`` of
   ``benchmarks/brittle_donut_arrest.py``), ``U``: the contact's springs ``sum k depth^2 / 2``, ``PE``: ``m g z``.
+  Under ``stress_at = "trapezoid"`` (round 70; ``gasp_core.mpm.stress_at``) ``psi`` is that of ``F`` with the
+  increment it still owes booked (:data:`OWED`, :meth:`Ledger.owed_F`): the scheme's P2G of a substep advances ``F``
+  by ``dt (C_prev + C) / 2``, the mean of the gradient the point had at the P2G before and the one G2P gave it since,
+  while the stress that P2G scatters works on the grid's velocities before and after its kick, whose gradients are
+  those two: a substep's stress works for the increment that the NEXT P2G takes. The stored energy of the engine's
+  ``F`` alone lags the stress's work by that whole increment (round 69's whole-step offset of the elastic term). With
+  the owed increment booked the elastic term of a substep is the stress's work against the rise it pays for (round
+  69's "c = 1" pairing, without a shift): the free bar's elastic term ends 0.07 % / 0.31 % of the energy brought at
+  cfl 0.4 / 0.8 (2.10 / 5.46 % unbooked, 1.00 / 2.58 % booked by half; ``free_vibration.py --ledger --owed``). On the
+  ball's landing the increment owed at the end is small: its closing sum (-3.19 % at n_grid 32, 4.43 m/s) is the
+  ``gradient`` term below, not this one (round 70). Only the hyperelastic points (jelly,
+  neo-Hookean: the scheme's; the return-mapping models keep the start's increment and stress); the ledger's scenes
+  have no held points. Under "start" and "mid" nothing is booked: their stress works half a step ahead of ``F``, a
+  bounded offset that the family's half-step pairing takes out (their figures since round 53 are read so).
 
 Sinks of a substep (positive: lost): ``p2g = Ep - K0``; ``contact = -W_contact - dU`` (the penalty's damping and its
 discrete steps); ``friction`` (``gasp_core.mpm.contact.node_friction`` on the friction budget the engine scattered,
@@ -31,7 +45,23 @@ applied to ``K3``'s velocities); ``rule = K3 - K4 - friction`` (the ground's and
 nodes' work moved, above); ``balance = K4 - K5``; ``g2p = K5 - Ep'``; ``plastic`` (round 53; round 56 for sand and
 snow): the returned stress's work on the return's log strain, over the points whose model returns (brittle points
 broken through, every sand point: the Drucker-Prager return; every snow point: the clamp; :meth:`Ledger.plastic`);
-``hardening`` (round 56): snow's stored energy's change with ``Jp`` at the returned ``F`` (:meth:`Ledger.hardening`).
+``hardening`` (round 56): snow's stored energy's change with ``Jp`` at the returned ``F`` (:meth:`Ledger.hardening`);
+``gradient`` (round 70, under ``stress_at = "trapezoid"`` alone, :meth:`Ledger.gradient`): the stress's work on
+the part of ``F``'s increment that the grid never carried. The stress's force on the nodes does ``-V tau : C(u)`` of
+work on a node velocity field ``u`` (``C(u)`` its APIC gather at the point, :func:`gather_C`), so a substep's stress
+works on ``(C~ + C^) / 2``, ``C~`` the gather of the free P2G's velocity (the point's own gradient ``C_0`` through the
+transfers' round trip) and ``C^`` that of the grid's velocity after the kick, before the grid's rule and friction;
+the trapezoid's increment takes ``(C_0 + C_1) / 2``, the point's own ``C_0`` and the ``C_1`` G2P gives after the rule
+and friction, and its stored energy rises by the scattered stress's work on that (the midpoint rule). The difference,
+``dt V tau_s : ((C~ - C_0) + (C^ - C_1)) / 2`` (``tau_s`` the engine's scattered stress, the midpoint's ``tau(H F)
+H^-T``), is no stress's work on the grid: booked here (positive: lost). Round 70 (``free_vibration.py --ledger``, the
+family): 3.37 % of the energy brought lost on the ball at n_grid 32 and 4.43 m/s (the elastic term ends -3.19 %
+without it, +0.18 % with it); 0.62 % on the README jelly donut at cfl 0.8 (ground friction 0.5; its ``C^ - C_1`` part
+is the friction's; +0.33 % at the end with it, -0.29 % without, and its gain read 0.37 %: 1.76 % with the first part
+alone); 0.006 % on the free bar at cfl 0.8, whose elastic term ends 0.32 % with it (the one-pass guess's offset),
+0.000 % with 3 passes. The stored energy's difference instead of this work (``psi`` of the two increments)
+books 0.99 % on the free bar that it does not lose: its second-order part is no work. Under "start" the increment takes
+``C_1`` alone (nothing to book).
 The two untraced terms, zero for an integrator that conserves energy: ``elastic = W_stress + dpsi + dD + plastic +
 hardening`` (the stress's work on the grid against the stored energy's rise, the damage's dissipation and the
 return's) and ``gravity = W_gravity + dPE``. With them the sinks sum to the drop of ``E = Ep + psi + U + PE + D`` (an
@@ -44,7 +74,7 @@ import numpy as np
 
 from gasp_core.mpm.contact import node_friction
 
-SINKS = ("p2g", "contact", "friction", "rule", "balance", "g2p", "plastic", "hardening")
+SINKS = ("p2g", "contact", "friction", "rule", "balance", "g2p", "plastic", "hardening", "gradient")
 UNTRACED = ("elastic", "gravity")
 
 
@@ -83,6 +113,16 @@ def p2g(x, vals, lo, dx, ng, C=None, m=None):
     return out
 
 
+def gather_C(x: np.ndarray, vn: np.ndarray, lo: np.ndarray, dx: float, ng: int) -> np.ndarray:
+    """The APIC gather of the node velocities ``vn`` (ng^3, 3) at the points ``x`` (n, 3): ``C_p = 4 / dx^2 sum w v_i
+    (x_i - x_p)^T`` (n, 3, 3), the engines' G2P gradient; MLS-MPM's stress force on the nodes does ``-V tau : C_p`` of
+    work on a node velocity field ``vn`` exactly."""
+    C = np.zeros((len(x), 3, 3))
+    for wt, flat, dpos in stencil(x, lo, dx, ng):
+        C += (4.0 / dx ** 2) * wt[:, None, None] * np.einsum("ni,nj->nij", vn[flat], dpos)
+    return C
+
+
 def grid_ke(mom: np.ndarray, mass: np.ndarray) -> float:
     """``sum |p|^2 / (2 m)`` over the nodes with mass (J)."""
     ok = mass > 0
@@ -95,6 +135,17 @@ def grid_ke_v(v: np.ndarray, mass: np.ndarray) -> float:
 
 
 HENCKY = ("sand", "metal", "plasticine")   # Hencky's energy in the engines; each returns F every substep
+
+#: The increment of ``F`` the ledger books under ``stress_at = "trapezoid"`` (module notes), as the fraction of the
+#: next P2G's ``dt (C_prev + C) / 2``: "whole" (1, the scheme's: the default), "half" (1/2) and "none" (0: round 69's
+#: ledger, unbooked) are the catches of ``tests/test_energy_ledger.py`` and ``free_vibration.py --ledger --owed``.
+OWED = {"whole": 1.0, "half": 0.5, "none": 0.0}
+TRAP_MODELS = ("jelly", "neo_hookean")   # the models the trapezoid advances (gasp_warp_mpm.trapezoid, mid_stress.py)
+
+
+def stress_at_of(engine) -> str:
+    """The engine's ``stress_at`` (``gasp_core.mpm.stress_at``; "start" where it has no config)."""
+    return str(getattr(getattr(engine, "config", None), "stress_at", "start"))
 
 
 class Stored:
@@ -143,6 +194,18 @@ class Stored:
         sd = ft * sfp / ((1 - np.minimum(d, 1)) * (sfp - ft) + ft)
         return 0.5 * v0 * (sc * eps).sum(1), v0 * ft * sd * d / (2 * E)
 
+    def tau(self, F) -> np.ndarray:
+        """The Kirchhoff stress (Pa, (n, 3, 3)) of the hyperelastic models the trapezoid advances, the engines'
+        (``constitutive.py``): fixed corotated ``2 mu (F - R) F^T + lam J (J - 1) I`` (jelly), neo-Hookean ``mu (F
+        F^T - I) + lam log(J) I``."""
+        J = np.linalg.det(F)
+        if self.kind == "neo_hookean":
+            return self.mu * (np.einsum("nij,nkj->nik", F, F) - np.eye(3)) + (self.lam * np.log(J))[:, None, None] \
+                * np.eye(3)
+        U, _s, Vt = np.linalg.svd(F)
+        return 2 * self.mu * np.einsum("nij,nkj->nik", F - U @ Vt, F) + (self.lam * J * (J - 1))[:, None, None] \
+            * np.eye(3)
+
     def returns(self, Jp) -> np.ndarray:
         """The points whose model returns ``F`` this substep (bool, (n,)), from their ``Jp`` before it: brittle
         points broken through (``d >= 1``: the cohesionless sand's Drucker-Prager return); every sand, metal and
@@ -178,7 +241,8 @@ class TaichiSteps:
         return {"x": s.x.to_numpy()[k].astype(np.float64), "v": s.v.to_numpy()[k].astype(np.float64),
                 "C": s.C.to_numpy()[k].astype(np.float64), "F": s.F.to_numpy()[k].astype(np.float64),
                 "Jp": s.Jp.to_numpy()[k].astype(np.float64), "m": s.p_mass.to_numpy()[k].astype(np.float64),
-                "v0": s.p_vol.to_numpy()[k].astype(np.float64)}
+                "v0": s.p_vol.to_numpy()[k].astype(np.float64),
+                **({"C_prev": s.C_prev.to_numpy()[k].astype(np.float64)} if s.trap_stress else {})}
 
     def coefficients(self) -> np.ndarray:
         """The particle contact's ``(k, c, skin)`` of the material points (n, 3; zeros without it: the grid
@@ -219,7 +283,8 @@ class WarpSteps:
         return {"x": e.x.numpy()[k].astype(np.float64), "v": e.v.numpy()[k].astype(np.float64),
                 "C": e.C.numpy()[k].astype(np.float64), "F": e.F.numpy()[k].astype(np.float64),
                 "Jp": e.Jp.numpy()[k].astype(np.float64), "m": e.p_mass.numpy()[k].astype(np.float64),
-                "v0": e.p_vol.numpy()[k].astype(np.float64)}
+                "v0": e.p_vol.numpy()[k].astype(np.float64),
+                **({"C_prev": e.trap_arrays()[0].numpy()[k].astype(np.float64)} if e.trap_on() else {})}
 
     def coefficients(self) -> np.ndarray:
         """The particle contact's ``(k, c, skin)`` of the material points (n, 3; zeros without planes)."""
@@ -258,10 +323,14 @@ class Ledger:
     ground's particle contact is booked: a scene with walls' or colliders' particle contact would put their impulses
     in the stress's term (the family's scenes have a ground alone). ``plastic``: :class:`Stored`'s (False: the
     ledger before round 56); ``held_end``: the held nodes' work at their end velocity (module notes; None: under the
-    grid contact). Raises ``AssertionError`` on a warp_mpm engine with a viscous material or a time table (their steps
-    are not split here)."""
+    grid contact). ``owed``: the share of ``F``'s owed increment booked in ``psi`` (a key of :data:`OWED`; None: the
+    engine's scheme's, "whole" under ``stress_at = "trapezoid"``, else nothing; module notes); ``gradient``: the
+    trapezoid's ``gradient`` sink booked (:meth:`gradient`; False: the catch, round 69's ledger). Raises
+    ``AssertionError`` on a warp_mpm engine with a viscous material or a time table (their steps are not split
+    here)."""
 
-    def __init__(self, setup, engine, material, ground=(0.0, 0.0), plastic: bool = True, held_end=None):
+    def __init__(self, setup, engine, material, ground=(0.0, 0.0), plastic: bool = True, held_end=None,
+                 owed: str | None = None, gradient: bool = True):
         from gasp_core.mpm.contact import contact_model
         from gasp_core.mpm.grid_origin import ground_on_node
         setup = ground_on_node(setup)   # the engines' grid: a ground on a node layer under the grid contact (round 56)
@@ -270,6 +339,11 @@ class Ledger:
         self.lo, self.dx, self.ng = np.asarray(setup.domain_lo, float), float(setup.dx), int(setup.n_grid)
         self.g = np.asarray(setup.gravity, float)
         self.stored = Stored(material, setup, plastic)
+        trap = stress_at_of(engine) == "trapezoid" and material.name in TRAP_MODELS
+        self.owed = (owed or "whole") if trap else "none"
+        assert self.owed in OWED, self.owed
+        self.trap_gradient = trap and gradient
+        self.passes = int(getattr(getattr(engine, "config", None), "stress_passes", 1))
         self.ground = ground if contact_model(setup) == "particle" else None
         self.held_end = contact_model(setup) != "particle" if held_end is None else held_end
         self.kc = self.steps.coefficients()   # the engine's own (k, c, skin) per point, its order
@@ -287,12 +361,24 @@ class Ledger:
         imp[:, 2] = np.where(on, np.maximum(0.0, self.dt * (k * depth - c * p["v"][:, 2])), 0.0)
         return imp, 0.5 * float((k * np.where(on, depth, 0.0) ** 2).sum())
 
+    def owed_F(self, p) -> np.ndarray:
+        """The points' ``F`` (n, 3, 3) with the increment the scheme still owes booked (module notes): ``(I + w dt
+        (C_prev + C) / 2) F``, ``w`` :data:`OWED`'s share (1 under the trapezoid: the next P2G's ``F``); ``F`` itself
+        where nothing is owed."""
+        F = p["F"].reshape(-1, 3, 3)
+        w = OWED[self.owed]
+        if w == 0.0:
+            return F
+        Ca = 0.5 * (p["C_prev"].reshape(-1, 3, 3) + p["C"].reshape(-1, 3, 3))
+        return np.einsum("nij,njk->nik", np.eye(3) + (w * self.dt) * Ca, F)
+
     def energy(self, p) -> dict:
-        """The state's energies (J): ``Ep``, ``kinetic`` (no affine part), ``psi``, ``D``, ``U``, ``PE``."""
+        """The state's energies (J): ``Ep``, ``kinetic`` (no affine part), ``psi`` (of :meth:`owed_F`), ``D``, ``U``,
+        ``PE``."""
         m = p["m"]
         kin = 0.5 * float(m @ (p["v"] ** 2).sum(1))
         aff = 0.5 * float(m @ (p["C"] ** 2).sum((1, 2))) * self.dx ** 2 / 4
-        psi, D = self.stored(p["F"].reshape(-1, 3, 3), p["Jp"], p["v0"], p["x"])
+        psi, D = self.stored(self.owed_F(p), p["Jp"], p["v0"], p["x"])
         return {"Ep": kin + aff, "kinetic": kin, "psi": psi, "D": D, "U": self.contact(p)[1],
                 "PE": -float(m @ (p["x"] @ self.g))}
 
@@ -338,6 +424,21 @@ class Ledger:
         F1, v0, x = p1["F"].reshape(-1, 3, 3), p1["v0"], p1["x"]
         return float(st.points(F1, p0["Jp"], v0, x)[0].sum() - st.points(F1, p1["Jp"], v0, x)[0].sum())
 
+    def gradient(self, Ct: np.ndarray, Cb: np.ndarray, p1: dict) -> float:
+        """The trapezoid's ``gradient`` sink of a substep (J; module notes): ``dt sum V tau_s : ((C~ - C_prev) + (C^ -
+        C)) / 2``, ``C~`` and ``C^`` (n, 3, 3) the gathers at the points of this substep's free P2G velocity and of
+        the grid's velocity after the P2G's impulses (before the grid's rule and friction), ``C_prev`` (``p1``'s) the
+        ``C`` this substep's P2G read and ``C`` the one G2P gave, ``tau_s`` the stress it scattered, ``tau(H F) H^-T`` of ``p1``'s ``F`` with ``H = I +
+        dt/2 C_prev`` (one pass; with more, ``C_prev`` and ``C`` averaged: the converged guess). Zero but under the
+        trapezoid."""
+        if not self.trap_gradient:
+            return 0.0
+        F, C0, C1 = (p1[k].reshape(-1, 3, 3) for k in ("F", "C_prev", "C"))
+        H = np.eye(3) + 0.5 * self.dt * (C0 if self.passes == 1 else 0.5 * (C0 + C1))
+        tau = self.stored.tau(np.einsum("nij,njk->nik", H, F))
+        ts = np.einsum("nij,nkj->nik", tau, np.linalg.inv(H))   # tau H^-T
+        return 0.5 * self.dt * float(np.einsum("n,nij,nij->", p1["v0"], ts, (Ct - C0) + (Cb - C1)))
+
     def step(self) -> dict:
         """One substep; appends and returns its row (module notes; ``E`` the total after it, ``mass_err`` the
         NumPy P2G's largest node-mass error over the engine's total mass)."""
@@ -352,6 +453,7 @@ class Ledger:
         ok = mass > 0
         inv = np.where(ok, 1.0 / np.where(ok, mass, 1.0), 0.0)[:, None]
         va = free[:, :3] * inv                                      # the free P2G's velocity
+        Ct = gather_C(p0["x"], va, self.lo, self.dx, self.ng) if self.trap_gradient else None   # its round trip
         stress = g["mom"] - free[:, :3] - cont                      # the engine's momentum less the free and contact
         vg = g["mom"] * inv + np.where(ok[:, None], self.dt * self.g, 0.0)
         mid = 0.5 * (va + vg)                                       # each impulse's work at the node's mean velocity
@@ -370,11 +472,12 @@ class Ledger:
         p1 = self.steps.points()
         E1 = self.energy(p1)
         d = {k: E1[k] - E0[k] for k in ("psi", "D", "U", "PE")}
-        plastic, hard = self.plastic(p0, p1), self.hardening(p0, p1)
+        Cb = gather_C(p0["x"], vg, self.lo, self.dx, self.ng) if self.trap_gradient else None   # after the kick
+        plastic, hard, grad = self.plastic(p0, p1), self.hardening(p0, p1), self.gradient(Ct, Cb, p1)
         row = {"p2g": E0["Ep"] - K0, "contact": -Wc - d["U"], "rule": K3 - K4 - fric + moved, "friction": fric,
                "balance": K4 - K5,
-               "g2p": K5 - E1["Ep"], "plastic": plastic, "hardening": hard,
-               "elastic": Ws + d["psi"] + d["D"] + plastic + hard,
+               "g2p": K5 - E1["Ep"], "plastic": plastic, "hardening": hard, "gradient": grad,
+               "elastic": Ws + d["psi"] + d["D"] + plastic + hard + grad,
                "gravity": Wg + d["PE"],
                "mid_err": K3 - K0 - Wc - Ws - Wg + moved,
                "total": sum(E1[k] for k in ("Ep", "psi", "D", "U", "PE")), **E1}

@@ -10,6 +10,9 @@ brought ``E0`` (kinetic + gravitational over the ground, + stored, J) and, summe
 ``gravity``), in J; the energy left; ``elastic_paired_worst`` (round 53): the largest elastic term on the way with the
 stored energy's rise of the next substep halved in (the points' velocity is half a substep ahead of their ``F``: that
 pairing takes out the symplectic step's bounded offset ``-(dt/2) dpsi/dt``, ``benchmarks/cfl_gain_probe.py``), J;
+``elastic_own_worst`` (round 70): the scheme's own reading of the elastic step's gain: the half-step paired one under
+"start" and "mid", the unpaired one under "trapezoid", whose ledger books ``F``'s owed increment
+(``energy_ledger.OWED``; round 69's whole-step pairing without its shift);
 the NumPy P2G's node-mass check; the least any sink took in one substep (a
 gain is negative). ``--gravity-scale`` / ``--stiffness-scale``: the catches (the engine built with gravity or E
 scaled, the ledger kept on the scene's).
@@ -86,14 +89,17 @@ def scene(body: str, engine: str, n_grid: int, v: float, cfl: float | None = Non
 def run(body: str, engine: str, n_grid: int, v: float, ms: float, cfl: float | None = None,
         gravity_scale: float = 1.0, stiffness_scale: float = 1.0, every_ms: float = 5.0,
         damping: float | None = None, flip: float | None = None, parts: bool = False, rule: str | None = None,
-        stress_at: str | None = None, friction: float | None = None, passes: int | None = None) -> dict:
+        stress_at: str | None = None, friction: float | None = None, passes: int | None = None,
+        owed: str | None = None, gradient: bool = True) -> dict:
     """One landing's ledger (module notes): sums of the sinks, the energy left, and a row every ``every_ms``.
     Prototypes, off by default (None): ``damping``, the particle contact's damping ratio
     (``gasp_core.mpm.contact.DAMPING``, 0.5) for this run; ``flip``, the engines' AFLIP option; ``rule``, the
     engines' ``cfl_rule`` option (``gasp_core.mpm.substeps.CFL_RULES``); ``stress_at``, the engines' option
     (``gasp_core.mpm.stress_at``, round 68); ``friction``, the ground's friction for this run (round 68's split of the
     donut's gain); ``passes``, warp_mpm's trial passes under ``stress_at = "trapezoid"`` (round 69,
-    the engines' option ``stress_passes``). ``parts``: also the
+    the engines' option ``stress_passes``); ``owed``, the ledger's booking of ``F``'s owed increment under the
+    trapezoid (``energy_ledger.OWED``; None: the scheme's, round 70); ``gradient`` False: the trapezoid's
+    ``gradient`` sink unbooked (``energy_ledger.Ledger.gradient``; the catch, round 70). ``parts``: also the
     parts of 1 % of the mass or more at the end (``gasp_core.testing.pieces_count.FramePieces``)."""
     import gasp_core.mpm.contact as gc
     from gasp_core.seam.build import build_engine
@@ -113,14 +119,38 @@ def run(body: str, engine: str, n_grid: int, v: float, ms: float, cfl: float | N
     if passes is not None:
         setup.options["stress_passes"] = passes
     try:
-        return _run(setup, body, engine, n_grid, v, ms, cfl, gravity_scale, stiffness_scale, every_ms, parts) | {
+        r = _run(setup, body, engine, n_grid, v, ms, cfl, gravity_scale, stiffness_scale, every_ms, parts,
+                 owed, gradient) | {
             "damping": damping, "flip": flip, "rule": rule, "stress_at": stress_at, "friction": friction,
             "passes": passes}
     finally:
         gc.DAMPING = keep
+    log_run(r)
+    return r
 
 
-def _run(setup, body, engine, n_grid, v, ms, cfl, gravity_scale, stiffness_scale, every_ms, parts) -> dict:
+def log_run(r: dict) -> None:
+    """With the environment's ``GASP_LEDGER_LOG`` set to a path, one JSON line of the run's figures (% of ``E0``)
+    appended there: the figures of a test run read without running its cases again (round 70)."""
+    import os
+    path = os.environ.get("GASP_LEDGER_LOG")
+    if not path:
+        return
+    e0, s = r["E0"], r["sums"]
+    pct = lambda x: round(100 * x / e0, 3)   # noqa: E731
+    row = {k: r.get(k) for k in ("body", "engine", "n_grid", "speed", "ms", "cfl", "rule", "stress_at", "passes",
+                                 "owed", "gradient", "gravity_scale")}
+    row.update({"untraced_end": pct(s["elastic"] + s["gravity"]), "untraced_worst": pct(r["untraced_worst"]),
+                "elastic_end": pct(s["elastic"]), "own_gain": pct(r["elastic_own_worst"]),
+                "paired": pct(r["elastic_paired_worst"]), "full": pct(r["elastic_full_worst"]),
+                "raw": pct(r["elastic_raw_worst"]), "left": pct(r["E_end"]), "gradient_sink": pct(s["gradient"]),
+                "E_max": pct(max(t["E"] for t in r["trace"])), "seconds": round(r["seconds"], 1)})
+    with open(path, "a") as f:
+        f.write(json.dumps(row) + "\n")
+
+
+def _run(setup, body, engine, n_grid, v, ms, cfl, gravity_scale, stiffness_scale, every_ms, parts, owed=None,
+         gradient=True) -> dict:
     from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import engines
     material = setup.materials[0]
@@ -130,7 +160,7 @@ def _run(setup, body, engine, n_grid, v, ms, cfl, gravity_scale, stiffness_scale
     e = build_engine(engines()[engine], variant)
     try:
         ground = next(((b.height, b.friction) for b in setup.boundaries if b.kind == "ground"), None)
-        led = Ledger(setup, e, material, ground)
+        led = Ledger(setup, e, material, ground, owed=owed, gradient=gradient)
         E0 = total(led.E)
         n = int(round(ms * 1e-3 / led.dt))
         every = max(1, int(round(every_ms * 1e-3 / led.dt)))
@@ -161,7 +191,8 @@ def _run(setup, body, engine, n_grid, v, ms, cfl, gravity_scale, stiffness_scale
             "gravity_scale": gravity_scale, "stiffness_scale": stiffness_scale, "dt": led.dt, "substeps": n,
             "n_points": int(len(led.kc)), "E0": E0, "E_end": trace[-1]["E"], "sums": sums, "least": least,
             "untraced_worst": worst, "elastic_paired_worst": paired, "elastic_full_worst": full,
-            "elastic_raw_worst": raw, "mass_err": led.mass_err,
+            "elastic_raw_worst": raw, "owed": led.owed, "gradient": led.trap_gradient,
+            "elastic_own_worst": raw if led.owed == "whole" else paired, "mass_err": led.mass_err,
             "seconds": time.time() - t0, "trace": trace,
             "parts": pieces}
 

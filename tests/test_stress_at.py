@@ -4,7 +4,7 @@ docs/fracture.md "Round 68: the midpoint stress").
 Fast: the work-conjugate midpoint stress ``tau(F_mid) (I + dt/2 C)^-T``, ``F_mid = (I + dt/2 C) F``, does the fixed
 corotated energy's rise over the increment ``(I + dt C) F`` to third order in ``dt`` (the start's stress to second,
 always short: a gain); its catch drops the pull-back ``(I + dt/2 C)^-T`` (second order again); both engines declare
-the option ("start" the default). Slow: under ``stress_at = "mid"`` the elastic step's gain (the ledger's, half-step
+the option ("trapezoid" the default since round 70; "start" before). Slow: under ``stress_at = "mid"`` the elastic step's gain (the ledger's, half-step
 paired: ``tests/test_energy_ledger.py``'s ``paired_gain``) stays under 1 % of the energy brought on the jelly ball at
 n_grid 32 and 48, 2 and 4.43 m/s, and the README jelly donut at the default quality's cfl 0.8 (with the scene's ground
 friction 0.5), both engines, and its loss (the damping it adds) stays under 20 % of it; the catch (taichi_mpm, the
@@ -73,12 +73,12 @@ def test_the_order_check_catches_the_midpoint_stress_without_its_pull_back():
 def test_both_engines_declare_stress_at():
     from gasp_core.mpm.options import MPMConfig
     from gasp_core.mpm.stress_at import STRESS_AT
-    assert (STRESS_AT.default, STRESS_AT.choices) == ("start", ("start", "mid", "trapezoid"))   # round 69
-    assert MPMConfig().stress_at == "start"
+    assert (STRESS_AT.default, STRESS_AT.choices) == ("trapezoid", ("start", "mid", "trapezoid"))   # round 70
+    assert MPMConfig().stress_at == "trapezoid"
     for mod in ("gasp_warp_mpm", "gasp_taichi_mpm"):
         m = pytest.importorskip(mod)
         cfg = m.WarpMPMConfig if mod == "gasp_warp_mpm" else m.TaichiMPMConfig
-        assert cfg().stress_at == "start" and cfg(stress_at="mid").stress_at == "mid"
+        assert cfg().stress_at == "trapezoid" and cfg(stress_at="start").stress_at == "start"
         assert any(o.name == "stress_at" for o in m.OPTIONS)
 
 

@@ -14,7 +14,9 @@ zero crossings of the left half's mean velocity under "start").
 two periods: the worst ``|elastic + c dpsi|`` (% of ``E0``; ``dpsi`` the substep's stored energy change) for ``c`` 0,
 1/2 (the pairing of ``energy_ledger_family.py``'s "paired gain": the start's half step) and 1 (the trapezoid's whole
 step: ``F`` advances by the substep's mean gradient at the next P2G, so the stored energy lags the stress's work by one
-increment).
+increment). Round 70: under the trapezoid the ledger books that owed increment (``energy_ledger.OWED``), so its
+``c`` 0 column is round 69's ``c`` 1; ``--owed whole,half,none`` compares the bookings (none: round 69's ledger);
+``--no-gradient`` leaves the ledger's ``gradient`` sink unbooked (``energy_ledger.Ledger.gradient``).
 
 Run: ``python benchmarks/studies/free_vibration.py [--engines warp_mpm,taichi_mpm] [--cfl 0.4,0.8]
 [--at start,mid,trapezoid] [--n-grid 32] [--passes 1,3] [--ledger]`` (one JSON line a run, then a markdown table).
@@ -97,15 +99,17 @@ def run(engine: str, n_grid: int, cfl: float, at: str, passes: int) -> dict:
             "kept": kept, "E0": float(Es[0]), "seconds": round(time.time() - t0, 1)}
 
 
-def offsets(engine: str, n_grid: int, cfl: float, at: str, passes: int) -> dict:
-    """The worst ``|elastic + c dpsi|`` of the ledger over two periods (module notes), % of ``E0``."""
+def offsets(engine: str, n_grid: int, cfl: float, at: str, passes: int, owed: str | None = None,
+            gradient: bool = True) -> dict:
+    """The worst ``|elastic + c dpsi|`` of the ledger over two periods (module notes), % of ``E0``; ``owed``: the
+    ledger's booking of ``F``'s owed increment under the trapezoid (``energy_ledger.OWED``; None: the scheme's)."""
     from energy_ledger import Ledger, total
     from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import engines
     setup = bar_setup(n_grid, cfl, at, passes)
     e = build_engine(engines()[engine], setup)
     try:
-        led = Ledger(setup, e, setup.materials[0], None)
+        led = Ledger(setup, e, setup.materials[0], None, owed=owed, gradient=gradient)
         E0, psi, el = total(led.E), led.E["psi"], 0.0
         worst = {0.0: 0.0, 0.5: 0.0, 1.0: 0.0}
         for _ in range(2 * int(round(2 * L / math.sqrt(E / RHO) / led.dt))):
@@ -116,7 +120,7 @@ def offsets(engine: str, n_grid: int, cfl: float, at: str, passes: int) -> dict:
     finally:
         e.close()
     return {"engine": engine, "cfl": cfl, "stress_at": at, "passes": passes if at == "trapezoid" else None,
-            **{f"c={c:g}": round(100 * w / E0, 3) for c, w in worst.items()}, "elastic_end": round(100 * el / E0, 3)}
+            "owed": led.owed, **{f"c={c:g}": round(100 * w / E0, 3) for c, w in worst.items()}, "elastic_end": round(100 * el / E0, 3)}
 
 
 def cases(a):
@@ -138,15 +142,20 @@ def main(argv=None) -> int:
     ap.add_argument("--n-grid", type=int, default=32)
     ap.add_argument("--passes", default="1,3", help="the trapezoid's passes a substep (comma list)")
     ap.add_argument("--ledger", action="store_true", help="the ledger's offsets instead (module notes)")
+    ap.add_argument("--owed", default=None, help="with --ledger: the ledger's booking of F's owed increment under "
+                    "the trapezoid, a comma list of whole, half, none (default: the scheme's, whole; round 70)")
+    ap.add_argument("--no-gradient", dest="gradient", action="store_false", help="with --ledger: the trapezoid's "
+                    "gradient sink left unbooked (energy_ledger.Ledger.gradient; round 69's ledger)")
     a = ap.parse_args(argv)
     if a.ledger:
-        print("| engine | cfl | stress_at | worst, c 0 | c 1/2 | c 1 | elastic term at the end |")
-        print("|---|---|---|---|---|---|---|")
+        print("| engine | cfl | stress_at | owed booked | worst, c 0 | c 1/2 | c 1 | elastic term at the end |")
+        print("|---|---|---|---|---|---|---|---|")
         for engine, cfl, at, passes in cases(a):
-            r = offsets(engine, a.n_grid, cfl, at, passes)
-            name = at + (f" ({passes} passes)" if r["passes"] else "")
-            print(f"| {engine} | {cfl} | {name} | {r['c=0']} | {r['c=0.5']} | {r['c=1']} | {r['elastic_end']} |",
-                  flush=True)
+            for owed in (a.owed.split(",") if a.owed and at == "trapezoid" else [None]):
+                r = offsets(engine, a.n_grid, cfl, at, passes, owed, a.gradient)
+                name = at + (f" ({passes} passes)" if r["passes"] else "")
+                print(f"| {engine} | {cfl} | {name} | {r['owed']} | {r['c=0']} | {r['c=0.5']} | {r['c=1']} | "
+                      f"{r['elastic_end']} |", flush=True)
         return 0
     rows = []
     for engine, cfl, at, passes in cases(a):

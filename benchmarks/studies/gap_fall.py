@@ -45,12 +45,15 @@ def run(engine, shape, half, n_grid, gap_cells, factor):
         eng.close()
 
 
-def landed(engine, shape, half, n_grid, gap_cells, frames=20):
+def landed(engine, shape, half, n_grid, gap_cells, frames=20, stress_at=None):
     """The body dropped ``gap_cells`` dx above the box, after ``frames`` frames: ``(gap at rest in dx, the deepest gap
     over the run in dx)``, the gap ``gasp_core.testing.scenes_pairs.surface_gap`` (nearest points less half of each
-    one's spacing; the mean of the last 5 frames)."""
+    one's spacing; the mean of the last 5 frames). ``stress_at``: the engines' option (None: the default, round 70's
+    "trapezoid")."""
     from gasp_core.testing.scenes_pairs import surface_gap
     setup, nb = scene(shape, half, n_grid, gap_cells)
+    if stress_at is not None:
+        setup.options["stress_at"] = stress_at
     dx = SIDE / n_grid
     eng = build_engine(engines()[engine], setup)
     gaps = []
@@ -74,6 +77,8 @@ def main():
     ap.add_argument("--rule", default="new", choices=("new", "old"))
     ap.add_argument("--curvature", action="store_true", help="round 61: gasp_core.mpm.gap_touch.CURVATURE on")
     ap.add_argument("--land", action="store_true", help="drop the body from --gap and report its gap at rest")
+    ap.add_argument("--frames", type=int, default=20, help="with --land: the frames run (the mean of the last 5)")
+    ap.add_argument("--stress-at", default=None, help="with --land: the engines' stress_at (default: theirs)")
     a = ap.parse_args()
     core_fields.GAP_TOUCH = a.rule == "new"
     if a.curvature:
@@ -82,8 +87,9 @@ def main():
     fall = -9.81 * FRAME
     if a.land:
         for gap in [float(g) for g in a.gap.split(",")]:
-            rest, deep = landed(a.engine, a.shape, a.half, a.n_grid, gap)
-            print(f"{a.engine} {a.shape} n_grid {a.n_grid} dropped {gap:.2f} dx rule {a.rule}: gap at rest "
+            rest, deep = landed(a.engine, a.shape, a.half, a.n_grid, gap, a.frames, a.stress_at)
+            print(f"{a.engine} {a.shape} n_grid {a.n_grid} dropped {gap:.2f} dx rule {a.rule} stress_at "
+                  f"{a.stress_at or 'default'}: gap at rest "
                   f"{rest:+.3f} dx (deepest {deep:+.3f} dx)", flush=True)
         return
     for gap in [float(g) for g in a.gap.split(",")]:

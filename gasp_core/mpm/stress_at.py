@@ -10,7 +10,8 @@ bounded offset) but not where the velocity gradient was set by something else th
 impulse, the ground's friction (round 68: the jelly donut's gain 2.75 % of the energy brought with the scene's
 friction 0.5, 1.33 % without; docs/fracture.md).
 
-``"trapezoid"`` (round 69, docs/fracture.md "Round 69: the trapezoidal stress"; an engine without trial passes refuses
+``"trapezoid"`` (round 69, docs/fracture.md "Round 69: the trapezoidal stress"; **the default since round 70**,
+docs/fracture.md "Round 70: the trapezoid as the default"; an engine without trial passes refuses
 ``stress_passes`` > 1) advances ``F`` by the mean of the increment's start and end gradients and scatters the stress of
 that increment's midpoint, the end gradient from :data:`STRESS_PASSES` fixed-point passes (1: the start's as the
 guess): the trapezoidal rule, no gain and no damping on a free vibration.
@@ -23,6 +24,9 @@ stress returns as the gain above): a stiffness-proportional damping of ratio abo
 hyperelastic models (jelly, neo-Hookean), whose stress is a function of ``F`` alone; the others keep their return
 mapping's stress, and a held point (``fixed_region``, a set box) its image's. Off by default (the figures and why:
 docs/fracture.md "Round 68").
+
+``"start"`` (the default until round 70) stays selectable: a scene's ``options: {stress_at: start}`` gives the
+symplectic Euler step of rounds 1-69 (its figures: ``tests/test_energy_ledger.py`` runs both).
 """
 from __future__ import annotations
 
@@ -36,13 +40,15 @@ STRESS_ATS = ("start", "mid", "trapezoid")
 MAX_STRESS_PASSES = 8
 
 STRESS_AT = Option(
-    "stress_at", "start", "where P2G takes the hyperelastic stress (jelly, neo-Hookean): 'start', of F (symplectic "
-    "Euler, the default), or 'mid', the work-conjugate stress of F_mid = (I + dt/2 C) F, whose work is the stored "
+    "stress_at", "trapezoid", "where P2G takes the hyperelastic stress (jelly, neo-Hookean; the other models keep "
+    "their return mapping's increment and stress under every choice): 'start', of F (symplectic "
+    "Euler, the default until round 70), or 'mid', the work-conjugate stress of F_mid = (I + dt/2 C) F, whose work is the stored "
     "energy's rise to third order (the jelly donut thrown at 4.43 m/s at cfl 0.8: its elastic step gains 2.75 % of "
     "the energy brought with 'start', 0.18 % with 'mid', which damps it instead: 16 % of it lost by the step; "
-    "gasp_core.mpm.stress_at, docs/fracture.md round 68), or 'trapezoid', F advanced by the mean of the increment's start and end velocity gradients and the stress at that "
-    "increment's midpoint (stress_passes; an engine without trial passes refuses more than one): the donut gains 0.17-0.45 % and keeps 75 % (start 77.4, mid 64.3), a free "
-    "vibration its energy (docs/fracture.md round 69)", kind="str",
+    "gasp_core.mpm.stress_at, docs/fracture.md round 68), or 'trapezoid' (the default since round 70), F advanced "
+    "by the mean of the increment's start and end velocity gradients and the stress at that increment's midpoint "
+    "(stress_passes; an engine without trial passes refuses more than one): the donut gains 0.17-0.45 % and keeps "
+    "75 % (start 77.4, mid 64.3), a free vibration its energy (docs/fracture.md rounds 69, 70)", kind="str",
     choices=STRESS_ATS)
 
 STRESS_PASSES = Option(
