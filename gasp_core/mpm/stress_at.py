@@ -22,8 +22,8 @@ pass: no extra transfer), so the stress's work is the stored energy's rise to th
 gain; its cost is the first-order loss of the explicit step (the impulse's ``|J|^2 / 2m`` a node, which the start's
 stress returns as the gain above): a stiffness-proportional damping of ratio about ``omega dt / 4``. Only the
 hyperelastic models (jelly, neo-Hookean), whose stress is a function of ``F`` alone; the others keep their return
-mapping's stress, and a held point (``fixed_region``, a set box) its image's. Off by default (the figures and why:
-docs/fracture.md "Round 68").
+mapping's stress, and a held point (``fixed_region``, a set box) its image's. An option, never the default (the
+figures and why: docs/fracture.md "Round 68").
 
 ``"start"`` (the default until round 70) stays selectable: a scene's ``options: {stress_at: start}`` gives the
 symplectic Euler step of rounds 1-69 (its figures: ``tests/test_energy_ledger.py`` runs both).
@@ -32,8 +32,8 @@ from __future__ import annotations
 
 from gasp_core.seam.options import Option
 
-#: The stress's point in the increment: the start (the default, symplectic Euler), the midpoint, or the trapezoid's
-#: (module notes).
+#: The stress's point in the increment: the start (symplectic Euler, the default until round 70), the midpoint, or
+#: the trapezoid's (the default since round 70; module notes).
 STRESS_ATS = ("start", "mid", "trapezoid")
 
 #: The most passes a substep under "trapezoid" (round 69: converged at 3 on the jelly donut).
