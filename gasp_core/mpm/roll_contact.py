@@ -61,6 +61,14 @@ STIFFNESS = 1.0
 EXACT = 1
 PATCH_FRICTION = 1
 SURFACE_ARM = 1
+#: Round 71: a round rigid body that is not a sphere (an ellipsoid, a cylinder; :func:`sphere_radius` 0) takes the
+#: default contact under the option (round 63's node band, as with the option off: the same launches, the same bits),
+#: not the lattice shape of round 66/67's point contact (``rigid_sdf.round_body``), which the option never tuned.
+#: 0: the broken variant (round 70's behaviour: such a body takes the lattice's point contact under the option).
+FALLBACK = 1
+#: Round 71: the broken variant PAIRS 0 merges every slot's patch with a soft body into one (the pair index without
+#: its slot: two balls on one slab share one friction impulse, the cross-talk ``roll_neighbours.py``'s ``two`` reads).
+PAIRS = 1
 #: A body is a sphere where its principal moments agree within this fraction and no point lies beyond the sphere of
 #: its volume by more than a point spacing.
 SPHERE_TOL = 0.05
