@@ -65,7 +65,7 @@ def test_round_bodies_that_are_not_spheres_take_the_default_contact(shape, on, f
     assert got == on and (abs(pts["sphere"][0] / 0.03 - 1.0) < 0.005 if on else pts["sphere"][0] == 0.0), pts
 
 
-@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("engine", ["warp_mpm", pytest.param("taichi_mpm", marks=pytest.mark.slow)])
 @pytest.mark.parametrize("shape,consts,same", [("ellipsoid", {}, True), ("cyl", {}, True),
                                                ("ellipsoid", {"FALLBACK": 0}, False)])
 def test_non_spheres_with_the_option_give_the_options_off_bits(engine, shape, consts, same):
@@ -84,8 +84,10 @@ def _rest_ok(r: dict) -> bool:
     ball's push on the jelly over its weight, each 1 within 5 %, 0.5-1 s), no jelly point inside the sphere by more
     than 0.25 dx nor its face floating more than 0.25 dx above it (the deepest point's depth in (-0.5, 0.25) dx: the
     face's points lie 0.25 dx under it), the gap's drift (0.3-1 s) within 0.1 dx either way, and both mass centres
-    still within 0.05 dx (0.75 mm) over the last 0.3 s."""
-    return (abs(r["ground"] - 1.0) < TOL and abs(r["on_jelly"] - 1.0) < TOL and -0.5 < r["depth"] < 0.25
+    still within 0.05 dx (0.75 mm) over the last 0.3 s; the gap's settle (0-0.3 s) Hertz's dent of the jelly's face
+    under its weight (0.111 dx) within the house's rest tolerance, 0.1 dx (the dent, 1.7 mm across a contact 9 mm wide,
+    is under the lattice's resolution: no 5 % check of it)."""
+    return (abs(r["settle"] + r["hertz"]) < 0.1 and abs(r["ground"] - 1.0) < TOL and abs(r["on_jelly"] - 1.0) < TOL and -0.5 < r["depth"] < 0.25
             and abs(r["drift"]) < 0.1 and r["jelly_mm"] < 0.75 and r["ball_mm"] < 0.75)
 
 

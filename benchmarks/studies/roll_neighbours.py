@@ -9,7 +9,8 @@ Scenes (jelly E 1e5 Pa, nu 0.3, rho 1000 unless said; a cube domain of 0.48 m; t
   drift (0.3 to 1 s, dx, as ``tests/test_soft_on_rigid_rest.py``); the deepest jelly point inside the sphere over the
   last 0.5 s (dx); the two bodies' mass centres' travel over the last 0.3 s (mm); statics: the ground's reaction over
   the system's weight, ``1 + dP_z / (W T)`` over 0.5-1 s, and the ball's contact force on the jelly over its weight,
-  the same of the jelly alone (each 1 at rest).
+  the same of the jelly alone (each 1 at rest); Hertz's dent of the jelly's face under its weight on the ball (dx, to
+  set against the settle).
 * ``two``: two rigid balls on one jelly slab (32 x 24 x 3 cm, held by a ground of friction 1; ``ball_roll_soft.py``'s
   scene widened; frames of 1/240 s, 0.1 s as round 70's thrown ball): R 3 cm at y -6 cm rolling without slip at 0.5 m/s along +x (its speed and
   ``w R`` at the end over the first frame's: rolling on a flat slab keeps both), R 4.5 cm at y +6 cm thrown sliding
@@ -158,7 +159,14 @@ def rest(engine: str, n_grid: int = 32, roll: bool = True, rho_ball: float = 300
             "ball_mm": 1e3 * float(np.linalg.norm(r1["cb"] - r7["cb"])),
             "ground": 1.0 + (r1["pj"] + r1["pb"] - r5["pj"] - r5["pb"]) / (W * T),
             "on_jelly": 1.0 + (r1["pj"] - r5["pj"]) / (mj * G * T),
-            "ball_z": (float(r1["cb"][2]) - R_BALL) / dx}
+            "ball_z": (float(r1["cb"][2]) - R_BALL) / dx, "hertz": hertz(mj * G, R_BALL, 1.0e5, 0.3) / dx}
+
+
+def hertz(F: float, R: float, E: float, nu: float) -> float:
+    """Hertz's dent (m) of a flat elastic body (``E``, ``nu``) pressed by a rigid sphere of radius ``R`` with force
+    ``F``: ``(9 F^2 / (16 E*^2 R))^(1/3)``, ``E* = E / (1 - nu^2)``."""
+    Es = E / (1.0 - nu * nu)
+    return float((9.0 * F * F / (16.0 * Es * Es * R)) ** (1.0 / 3.0))
 
 
 def rolling(engine: str, n_grid: int, bodies: list, roll: bool, T: float = 0.2, width: float = 0.16,
