@@ -29,7 +29,12 @@ ball's velocity at that depth (``v = w (R + s/2)``: the ball slips).
 
 Broken variants for the checks: :data:`EXACT` 0 takes the lattice ball's shape (round 66's ``body_sdf``) for the
 sphere's; :data:`SURFACE_ARM` 0 the arm at the patch; :data:`PATCH_FRICTION` 0 round 67's friction per point;
-``rigid_collider.FRICTION`` 0 no friction.
+``rigid_collider.FRICTION`` 0 no friction; round 71: :data:`FALLBACK` 0 a round body that is no sphere takes the
+lattice's point contact, :data:`PAIRS` 0 every slot's patch one (cross-talk).
+
+Round 71 (``docs/rigid.md`` "Round 71: roll_contact on neighbours' scenes"): a round rigid body that is not a sphere
+(an ellipsoid; a cylinder or a cube has faces and never took the point contact) takes the default contact under the
+option, round 63's node band, the option off's bits.
 """
 from __future__ import annotations
 
