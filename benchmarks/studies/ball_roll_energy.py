@@ -22,7 +22,8 @@ constants of ``rigid_sdf`` (``point4+PATCH=0.25``: round 67's patches; ``+EXACT_
 :func:`exact_sphere`); round 70: ``roll``, the engine option ``roll_contact`` (``gasp_core.mpm.roll_contact``), with
 ``+NAME=VALUE`` its constants or warp_mpm's ``rigid_collider.FRICTION`` (``roll+EXACT=0``, ``roll+FRICTION=0``: broken
 variants); ``--E`` the slab's Young's modulus
-(``rigid``: the same slab rigid, the control); ``--mu``; ``--n-grid``; ``--ppc`` the slab's points per cell along an
+(``rigid``: the same slab rigid, the control); round 71: ``--engine taichi_mpm`` (the same budget read from taichi_mpm's
+points, without the slab's P2G column); ``--mu``; ``--n-grid``; ``--ppc`` the slab's points per cell along an
 axis (2: the scene's); ``--v0`` the ball's speed; ``--radius``; ``--seat`` the ball set on the slab's top points.
 
     python benchmarks/studies/ball_roll_energy.py --contact default point4 --E rigid 1e5 1e6 1e7 --mu 0 0.5
@@ -98,7 +99,7 @@ class Budget:
         self.body = e.read_array("body")
         self.m = e.read_array("p_mass").astype(float)
         self.v0 = e.read_array("p_vol").astype(float)
-        kc = e.p_contact.numpy().astype(float)
+        kc = e.read_array("p_contact").astype(float)   # round 71: either engine's (k, c, skin) per point
         self.kc = kc if len(kc) == len(self.m) else np.zeros((len(self.m), 3))
         return {k: e.read_array(k).astype(float) for k in ("x", "v", "C", "F")}
 
@@ -142,7 +143,7 @@ class Budget:
 
 
 def run(contact: str, E, mu: float, n_grid: int = 32, R: float = 0.03, T: float = 0.2, ppc: int = 2,
-        p2g: bool = True, v0: float = 0.5, seat: bool = False, spin: float = 1.0) -> dict:
+        p2g: bool = True, v0: float = 0.5, seat: bool = False, spin: float = 1.0, engine: str = "warp_mpm") -> dict:
     """One case's budget (module notes): energies at the first frame and the last (J), the sums, ``c_rr``."""
     import gasp_core.mpm.rigid_sdf as sdf
     import gasp_core.mpm.roll_contact as roll
@@ -169,9 +170,9 @@ def run(contact: str, E, mu: float, n_grid: int = 32, R: float = 0.03, T: float 
         if name == "roll":   # round 70: the engine option roll_contact
             s = s.replace(options={**s.options, "roll_contact": True})
         t0 = time.time()
-        e = build_engine(get_engine("warp_mpm"), s)
+        e = build_engine(get_engine(engine), s)
         bud = Budget(s, e, s.materials[1])
-        if p2g and slab != "rigid":
+        if p2g and slab != "rigid" and engine == "warp_mpm":   # round 71: taichi_mpm's substeps are not hooked
             inner = e._substep
 
             def hooked(i, capturing=False):
@@ -181,13 +182,13 @@ def run(contact: str, E, mu: float, n_grid: int = 32, R: float = 0.03, T: float 
         rows = [{**bud.energies(), "p2g": 0.0, "t": 0.0}]   # the state given, before any step
         for _ in range(round(T / s.frame_dt)):
             e.step_frame()
-            rows.append({**bud.energies(), "p2g": bud.p2g, "t": e.sim_time})
+            rows.append({**bud.energies(), "p2g": bud.p2g, "t": getattr(e, "sim_time", e.frame * s.frame_dt)})
         dt = float(e.dt)
         e.close()
     finally:
         for k, v in keep.items():
             setattr(mods[k], k, v)
-    return {"contact": contact, "E": E, "mu": mu, "n_grid": n_grid, "R": R, "T": T, "ppc": ppc, "dt": dt, "v0": v0,
+    return {"contact": contact if engine == "warp_mpm" else f"{engine}:{contact}", "engine": engine, "E": E, "mu": mu, "n_grid": n_grid, "R": R, "T": T, "ppc": ppc, "dt": dt, "v0": v0,
             "seat": seat, "spin": spin,
             "rows": rows, "seconds": time.time() - t0}
 
@@ -244,6 +245,8 @@ HEAD = ("| contact | n_grid | ppc | R (cm) | slab E (Pa) | mu | from (s) | v (m/
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--engine", default="warp_mpm", help="round 71: warp_mpm or taichi_mpm (taichi_mpm: no P2G "
+                    "column, its substeps are not hooked; its contact column prefixed)")
     ap.add_argument("--contact", nargs="+", default=["default", "point4"])
     ap.add_argument("--E", nargs="+", default=["rigid", "1e5"])
     ap.add_argument("--mu", type=float, nargs="+", default=[0.0, 0.5])
@@ -273,7 +276,7 @@ def main(argv=None) -> int:
                     for E in a.E:
                         for mu in a.mu:
                             for v0 in a.v0:
-                                r = run(contact, E, mu, n, R, a.T, ppc, not a.no_p2g, v0, a.seat)
+                                r = run(contact, E, mu, n, R, a.T, ppc, not a.no_p2g, v0, a.seat, engine=a.engine)
                                 for t0 in [None] + a.windows:
                                     print(row(r, t0), flush=True)
                                 if a.json:

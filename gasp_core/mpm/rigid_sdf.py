@@ -213,9 +213,11 @@ def point_data(setup, bodies) -> dict:
         sel = (body == k) & (mass > 0)
         pts = X0[sel]
         on = (bool(POINT_CONTACT) or rolls) and round_body(pts)
-        out["on"][i] = int(on)
         if on and rolls and roll.EXACT:
             sphere[i] = roll.sphere_radius(pts, float(vol[sel].sum()), point_spacing(pts))
+        if on and rolls and not POINT_CONTACT and roll.EXACT and not sphere[i] and roll.FALLBACK:
+            on = False   # round 71: a round body not a sphere takes the default (round 63's band), not the lattice
+        out["on"][i] = int(on)
         sdf = body_sdf(pts, dx) if on and not sphere[i] else {"origin": np.zeros(3), "h": 1.0, "phi": np.ones((1, 1, 1)),
                                              "grad": np.zeros((1, 1, 1, 3))}
         out["phi"].append(sdf["phi"].reshape(-1))

@@ -29,7 +29,12 @@ ball's velocity at that depth (``v = w (R + s/2)``: the ball slips).
 
 Broken variants for the checks: :data:`EXACT` 0 takes the lattice ball's shape (round 66's ``body_sdf``) for the
 sphere's; :data:`SURFACE_ARM` 0 the arm at the patch; :data:`PATCH_FRICTION` 0 round 67's friction per point;
-``rigid_collider.FRICTION`` 0 no friction.
+``rigid_collider.FRICTION`` 0 no friction; round 71: :data:`FALLBACK` 0 a round body that is no sphere takes the
+lattice's point contact, :data:`PAIRS` 0 every slot's patch one (cross-talk).
+
+Round 71 (``docs/rigid.md`` "Round 71: roll_contact on neighbours' scenes"): a round rigid body that is not a sphere
+(an ellipsoid; a cylinder or a cube has faces and never took the point contact) takes the default contact under the
+option, round 63's node band, the option off's bits.
 """
 from __future__ import annotations
 
@@ -61,6 +66,14 @@ STIFFNESS = 1.0
 EXACT = 1
 PATCH_FRICTION = 1
 SURFACE_ARM = 1
+#: Round 71: a round rigid body that is not a sphere (an ellipsoid, a cylinder; :func:`sphere_radius` 0) takes the
+#: default contact under the option (round 63's node band, as with the option off: the same launches, the same bits),
+#: not the lattice shape of round 66/67's point contact (``rigid_sdf.round_body``), which the option never tuned.
+#: 0: the broken variant (round 70's behaviour: such a body takes the lattice's point contact under the option).
+FALLBACK = 1
+#: Round 71: the broken variant PAIRS 0 merges every slot's patch with a soft body into one (the pair index without
+#: its slot: two balls on one slab share one friction impulse, the cross-talk ``roll_neighbours.py``'s ``two`` reads).
+PAIRS = 1
 #: A body is a sphere where its principal moments agree within this fraction and no point lies beyond the sphere of
 #: its volume by more than a point spacing.
 SPHERE_TOL = 0.05

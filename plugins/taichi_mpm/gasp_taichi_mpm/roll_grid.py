@@ -19,12 +19,14 @@ class RollGrid:
     """The patch friction's fields and kernels (``pg_pf`` False: none)."""
 
     pg_pf = False
+    rg_pmul = 1
 
     def allocate_roll(self) -> None:
         import gasp_core.mpm.roll_contact as roll
         self.rg_npair = int(self.rc_ns) * int(self.rc_ncol)
         self.rg_T = ti.field(ti.f64, shape=NT * self.rg_npair)
         self.rg_passes = int(roll.FRICTION_PASSES)
+        self.rg_pmul = 1 if roll.PAIRS else 0   # round 71: the broken variant PAIRS 0 (every slot's patch one)
 
     @ti.func
     def rg_sphere(self, xp, base, fx, w, f, skin, best, sb, nb, dlt):
@@ -67,7 +69,7 @@ class RollGrid:
     def rg_pair(self, p):
         k = -1
         if self.pc_s[p] >= 0 and self.pg_ln[p] > 0.0:
-            k = self.pc_s[p] * self.rc_ncol + self.rc_cols[self.body[p]]
+            k = self.pc_s[p] * self.rc_ncol * self.rg_pmul + self.rc_cols[self.body[p]]   # round 71: roll.PAIRS
         return k
 
     @ti.kernel

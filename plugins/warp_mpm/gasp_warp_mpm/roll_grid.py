@@ -207,7 +207,7 @@ def roll_launches(eng, Ft) -> list:
     eng.rg_T = wp.zeros(int(NT) * npair, dtype=wp.float64, device=d)
     lo = eng.k.vec3(*[float(c) for c in eng.setup.domain_lo])
     at = [eng.x, eng.in_a, lo, Ft(eng.inv_dx), ng, eng.body]
-    pair = [eng.rc_cols, eng.rc_ncol, eng.rg_T]
+    pair = [eng.rc_cols, eng.rc_ncol if roll.PAIRS else 0, eng.rg_T]   # round 71: PAIRS 0, every slot's patch one
     bod = [eng.pg_sl, eng.rc_acc, eng.rb_M, eng.rb_I0, eng.rb_R, eng.rc_bodies, affine_dx(eng.dx), 0]
     react = rc.REACT * int(rigid_sdf.REACT_POINTS)
     out += [wp.launch(clear, dim=npair, device=d, record_cmd=True, inputs=[eng.rg_T]),
