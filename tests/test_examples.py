@@ -131,12 +131,64 @@ def test_readme_donut_run(tmp_path, engine):
     z_mean = np.array(z_mean)
     assert z_mean[0] - z_mean.min() > 0.04                    # it fell (dropped from 5 cm)
     assert min(z_min) > -dx                                   # never more than one cell below the ground
-    # The solid (filled) jelly is elastic and undamped: it bounces (taichi_mpm: rebound peaks 98.5, 92.1,
-    # 86.6, 82.7 ... mm, still 0.43 of the impact speed at the end; README "Known limits"). It must
-    # never gain energy: every rebound peak of the centroid is lower than the one before.
+    # It must never gain energy: every flight's apex is lower than the one before (flight_apexes).
+    problem = apexes_problem(z_mean, np.array(z_min), dx)
+    assert problem is None, problem
     land = int(np.argmin(z_mean[:8]))
-    after = z_mean[land:]
-    peaks = [after[i] for i in range(1, len(after) - 1) if after[i - 1] < after[i] >= after[i + 1]]
-    assert all(b <= a + 1e-4 for a, b in zip(peaks, peaks[1:])), np.round(np.array(peaks) * 1000, 1)
     assert z_mean[land:].max() < z_mean[0]                    # never back to the drop height
     assert abs(z_mean[-1] - (z_mean[0] - 0.05)) < 0.02        # resting on the ground, not hovering
+
+
+#: The rise a flight's apex may show over the one before it, m (0.1 mm: the frames' float32 positions and the
+#: Gaussians' mean, 10^-3 of the first rebound's 84 mm).
+APEX_RISE = 1e-4
+
+
+def flight_apexes(z_mean: np.ndarray, z_min: np.ndarray, dx: float) -> list[int]:
+    """The frames at which the README donut is at the top of a flight: a local maximum of its Gaussians' mean height
+    after the landing (the lowest mean in the first 8 frames) with its lowest Gaussian more than a cell above the
+    ground, out of reach of either contact (the particle contact's skin is half a point spacing, the grid contact's
+    layer one cell). Only there is the height a measure of the energy (``m g z`` and no vertical speed). In contact
+    a local maximum of the frames is not: the donut's ground reaction and stored energy mix in, and the 30 Hz frames
+    alias its lowest mode (about 21 Hz; examples/donut_jelly.toml), so the resting donut's frame maxima wander by
+    +-0.1 mm while its energy falls (round 71, docs/fracture.md "Round 71": under the trapezoid the resting maxima
+    of frames 28 and 30 read 51.420 and 51.527 mm on both engines, the energy falling 0.2285 -> 0.2271 J between
+    them; under "start" 51.819 and 51.572)."""
+    land = int(np.argmin(z_mean[:8]))
+    return [i for i in range(land + 1, len(z_mean) - 1)
+            if z_mean[i - 1] < z_mean[i] >= z_mean[i + 1] and z_min[i] > dx]
+
+
+def apexes_problem(z_mean: np.ndarray, z_min: np.ndarray, dx: float) -> str | None:
+    """None when there are two flights or more and each apex is at most :data:`APEX_RISE` above the one before."""
+    apexes = flight_apexes(z_mean, z_min, dx)
+    heights = z_mean[apexes]
+    if len(apexes) < 2:
+        return f"fewer than two flights: apexes at frames {apexes}"
+    if np.any(np.diff(heights) > APEX_RISE):
+        return f"a flight's apex rose (energy gained): frames {apexes}, mm {np.round(heights * 1e3, 2).tolist()}"
+    return None
+
+
+#: The README donut's frames under the trapezoid (round 71, warp_mpm and taichi_mpm alike to 0.1 mm): the Gaussians'
+#: mean height and the lowest Gaussian's, mm, frames 0-36 (``test_readme_donut_run``'s reading; dx 6.537 mm).
+ROUND71_MEAN = [110.21, 104.70, 88.28, 60.96, 48.75, 72.47, 82.62, 84.14, 72.71, 52.35, 53.01, 66.94, 66.88, 58.81,
+                46.84, 57.42, 56.15, 53.45, 50.61, 52.98, 53.60, 50.11, 52.13, 52.99, 50.17, 51.89, 51.10, 50.96,
+                51.42, 50.50, 51.53, 50.51, 51.28, 50.68, 51.12, 50.80, 50.96]
+ROUND71_MIN = [50.0, 44.48, 28.06, 0.74, -0.44, 17.89, 26.24, 27.93, 16.32, -1.03, 1.55, 12.36, 10.35, 1.27, -0.78,
+               0.07, -0.46, -0.36, -0.76, -0.04, -0.2, -0.42, -0.46, -0.27, -0.64, -0.16, -0.47, -0.25, -0.3, -0.39,
+               -0.36, -0.38, -0.18, -0.39, -0.31, -0.31, -0.25]
+
+
+def test_the_apex_check_reads_flights_and_catches_a_gain():
+    """On round 71's frames the flights are frames 7 and 11 (84.14, 66.94 mm) and pass, though the resting frames'
+    maxima rise (50.96 -> 51.42 -> 51.53 mm at frames 27, 28, 30: the aliased rest). The catches: the second
+    flight's apex 5 % higher than the first (an energy gain), and no flight at all (a donut that never leaves the
+    ground, or a reading of the height in the ground's frame that always finds the lowest Gaussian below a cell)."""
+    z, lo, dx = np.array(ROUND71_MEAN) / 1e3, np.array(ROUND71_MIN) / 1e3, 6.537e-3
+    assert flight_apexes(z, lo, dx) == [7, 11]
+    assert apexes_problem(z, lo, dx) is None
+    gained = z.copy()
+    gained[10:13] += 1.05 * z[7] - z[11]
+    assert "rose" in apexes_problem(gained, lo, dx)
+    assert "fewer" in apexes_problem(z, np.minimum(lo, dx), dx)
