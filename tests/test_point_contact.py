@@ -301,7 +301,8 @@ def test_a_soft_body_rests_on_a_rigid_ball(case, points):
     pytest.param(True, {"GRID_PASSES": 4}, True, id="grid"),
     pytest.param(True, {"GRID_PASSES": 4, "REACT_POINTS": 0}, False, id="grid-no-reaction"),
     pytest.param(True, {"GRID_PASSES": 4, "SOFT_SIDE": 0}, False, id="grid-soft-side-dropped"),
-    pytest.param(None, {}, True, id="default")])
+    pytest.param(None, {}, True, id="default"),
+    pytest.param(None, {"REACT_POINTS": 0}, False, id="default-no-reaction")])
 def test_a_rigid_ball_pushes_a_jelly_cube_beside_it(points, consts, passes):
     """The rigid ball (R 4.5 cm, 0.38 kg) thrown at 0.5 m/s along the frictionless ground into a 6 cm jelly cube
     (0.216 kg) 5 mm ahead: after 0.25 s the two bodies' momentum along x within 5 % of the ball's at the start, the
@@ -311,7 +312,8 @@ def test_a_rigid_ball_pushes_a_jelly_cube_beside_it(points, consts, passes):
     bug first merged): the ball back at -0.35 m/s, the cube at 0.000 (-0.13 kg m/s). Round 67, the grid's constraint
     (``GRID_PASSES`` 4): ball +0.232, cube +0.474 at 0.5 s (0.191 -> 0.191); its catches: no reaction (the ball on
     at +0.500, the cube +0.765: momentum made), the soft side dropped (ball -0.240, cube 0.000). Round 71: the rows
-    pinned to their contacts (``roll_contact`` false); ``default`` the default contact (roll_contact)."""
+    pinned to their contacts (``roll_contact`` false); ``default`` the default contact (roll_contact), its catch the
+    soft points' reaction dropped (``REACT_POINTS`` 0, read by the option's contact too)."""
     old = {k: getattr(rigid_sdf, k) for k in consts}
     for k, val in consts.items():
         setattr(rigid_sdf, k, val)
