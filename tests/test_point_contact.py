@@ -25,6 +25,11 @@ Round 67 (``docs/rigid.md`` "Round 67: the point contact as a constraint of the 
 both engines' ``point_grid.py``): the touching points' impulses solved against the grid velocities hold the soft
 body on the ball (drift -0.002 dx; the settle against the contact's geometry), push the cube (momentum kept) and
 rest the ball, each with its catch (round 66's contact per point, no reaction, the soft side dropped).
+
+Round 71 (``docs/rigid.md`` "Round 71: roll_contact as the default"): the engine option ``roll_contact`` is on by
+default (a sphere's exact contact), so every engine test here pins the contact it studies with ``roll_contact = false``
+(the point contact, or round 63's band); the rest check and the push are also run under the default (the rest check
+re-derived for the exact sphere: no shrink, its catch ``roll_contact.EXACT`` 0).
 """
 from __future__ import annotations
 
@@ -125,20 +130,25 @@ def test_a_frictionless_contact_on_a_ball_turns_it_little():
 SLOW = pytest.mark.slow
 
 
-def _rest(engine="warp_mpm", **consts):
+def _rest(engine="warp_mpm", roll=False, **consts):
     """The ball's centre drop (mm) over 0.25 s and from 0.125 to 0.25 s, set at rest on the jelly slab of
-    ``ball_roll_soft.py`` (n_grid 32, R 3 cm, mu 0.5) with the point contact on."""
+    ``ball_roll_soft.py`` (n_grid 32, R 3 cm, mu 0.5) with the point contact on (pinned: ``roll_contact`` false), or
+    (``roll``, round 71) with the default contact (``roll_contact``, the ball's exact sphere; ``consts`` on
+    ``gasp_core.mpm.roll_contact``)."""
     pytest.importorskip(f"gasp_{engine}")
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks" / "studies"))
     from ball_roll_soft import roll_setup
     from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import get_engine
-    old = {k: getattr(rigid_sdf, k) for k in consts}
-    rigid_sdf.POINT_CONTACT = True
+    from gasp_core.mpm import roll_contact
+    mod = roll_contact if roll else rigid_sdf
+    old = {k: getattr(mod, k) for k in consts}
+    rigid_sdf.POINT_CONTACT = not roll
     for k, v in consts.items():
-        setattr(rigid_sdf, k, v)
+        setattr(mod, k, v)
     try:
         s = roll_setup(32, 0.03, 0.0, 0.5, "elastic", 0.0)
+        s = s if roll else s.replace(options={**s.options, "roll_contact": False})
         nb = int(np.sum(np.asarray(s.body_id) == 0))
         e = build_engine(get_engine(engine), s)
         z = []
@@ -149,7 +159,7 @@ def _rest(engine="warp_mpm", **consts):
     finally:
         rigid_sdf.POINT_CONTACT = False
         for k, v in old.items():
-            setattr(rigid_sdf, k, v)
+            setattr(mod, k, v)
     z0 = float(np.asarray(s.x)[:nb, 2].mean())
     return 1e3 * (z0 - z[-1]), 1e3 * (z[29] - z[-1])
 
@@ -157,8 +167,8 @@ def _rest(engine="warp_mpm", **consts):
 #: The rest check: the sink (the drop less the contact radius's shrink, the blur's ``sigma^2 / R``, 2.93 mm) between 0
 #: and 0.2 dx (3 mm; Hertz's sink of the ball's weight into a half-space of E 1e5 Pa is 2.7 mm, the 3 cm slab on its
 #: ground is stiffer; measured 0.95 mm) and the late drift under 0.05 dx (0.75 mm in 0.125 s; measured 0.08 mm).
-def _rests(drop, late) -> bool:
-    shrink = 1e3 * (rigid_sdf.BLUR * DX / 2) ** 2 / 0.03
+def _rests(drop, late, shrink=None) -> bool:
+    shrink = 1e3 * (rigid_sdf.BLUR * DX / 2) ** 2 / 0.03 if shrink is None else shrink
     return 0.0 < drop - shrink < 0.2 * DX * 1e3 and abs(late) < 0.05 * DX * 1e3
 
 
@@ -182,15 +192,31 @@ def test_the_rest_check_catches_broken_point_contacts(engine, consts):
     assert not _rests(drop, late), (consts, drop, late)
 
 
+# Round 71 (docs/rigid.md "Round 71: roll_contact as the default"): the same rest under the default contact (the engine
+# option roll_contact: the ball's exact sphere). Its check re-derived for the exact sphere: the sphere is the radius the
+# scene asked (its volume's, 3 cm), centred on the ball's mass centre, and the slab's face is read where the slab is
+# (its top points' patches, a quarter cell above them: the slab's top, z 3 cm); the ball is set with its centre R above
+# that face, so no shrink: the whole drop is the sink, between 0 and 0.2 dx (Hertz's sink of the ball's weight into a
+# half-space of E 1e5 Pa is 2.7 mm; the 3 cm slab on its ground is stiffer), and the late drift under 0.05 dx.
+# The catch: EXACT 0 (the lattice ball's shape for the sphere's: its 2.93 mm shrink read as a sink).
+@SLOW
+@pytest.mark.parametrize("engine,consts,rests", [("warp_mpm", {}, True), ("taichi_mpm", {}, True),
+                                                 ("warp_mpm", {"EXACT": 0}, False)])
+def test_a_ball_rests_on_jelly_by_the_default_contact(engine, consts, rests):
+    drop, late = _rest(engine, roll=True, **consts)
+    assert _rests(drop, late, shrink=0.0) == rests, (consts, drop, late)
+
+
 # Round 66 (softtop, docs/rigid.md "Round 66: the point contact under a soft body (softtop)"): the configurations a
 # user builds with a round rigid body under or beside a soft one (``benchmarks/studies/soft_on_round.py``'s scenes,
 # warp_mpm, n_grid 32, jelly E 1e5). The band (the switch off) holds them; the point contact pushes the cube (pcfix)
 # but lets a soft body creep through a ball under it (strict xfails: the next session sees them pass once it holds).
 
-def _round_scene(case, points, T, engine="warp_mpm", **consts):
+def _round_scene(case, points, T, engine="warp_mpm", options=None, **consts):
     """``(setup, positions, velocities)`` of ``soft_on_round.round_setup(case)`` run ``T`` s on warp_mpm with
     ``POINT_CONTACT`` ``points`` (and ``consts`` on ``rigid_sdf``), positions at 0.3 s and at ``T`` (the rest scenes:
-    ``T`` 1.0 s)."""
+    ``T`` 1.0 s). Round 71: pinned to the old contacts (``roll_contact`` false) unless ``options`` (``{}``: the
+    default, the ball's exact sphere)."""
     pytest.importorskip(f"gasp_{engine}")
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks" / "studies"))
     from soft_on_round import round_setup
@@ -202,6 +228,7 @@ def _round_scene(case, points, T, engine="warp_mpm", **consts):
         setattr(rigid_sdf, k, v)
     try:
         s = round_setup(case)
+        s = s.replace(options={**s.options, **({"roll_contact": False} if options is None else options)})
         e = build_engine(get_engine(engine), s)
         xs = []
         for f in range(round(T / s.frame_dt)):
@@ -273,7 +300,9 @@ def test_a_soft_body_rests_on_a_rigid_ball(case, points):
     pytest.param(True, {"SOFT_SIDE": 0}, False, id="points-soft-side-dropped"),
     pytest.param(True, {"GRID_PASSES": 4}, True, id="grid"),
     pytest.param(True, {"GRID_PASSES": 4, "REACT_POINTS": 0}, False, id="grid-no-reaction"),
-    pytest.param(True, {"GRID_PASSES": 4, "SOFT_SIDE": 0}, False, id="grid-soft-side-dropped")])
+    pytest.param(True, {"GRID_PASSES": 4, "SOFT_SIDE": 0}, False, id="grid-soft-side-dropped"),
+    pytest.param(None, {}, True, id="default"),
+    pytest.param(None, {"REACT_POINTS": 0}, False, id="default-no-reaction")])
 def test_a_rigid_ball_pushes_a_jelly_cube_beside_it(points, consts, passes):
     """The rigid ball (R 4.5 cm, 0.38 kg) thrown at 0.5 m/s along the frictionless ground into a 6 cm jelly cube
     (0.216 kg) 5 mm ahead: after 0.25 s the two bodies' momentum along x within 5 % of the ball's at the start, the
@@ -282,12 +311,14 @@ def test_a_rigid_ball_pushes_a_jelly_cube_beside_it(points, consts, passes):
     cube +0.492 (0.191 -> 0.191), both engines. The catch: ``SOFT_SIDE`` 0 (the soft points' change dropped, the
     bug first merged): the ball back at -0.35 m/s, the cube at 0.000 (-0.13 kg m/s). Round 67, the grid's constraint
     (``GRID_PASSES`` 4): ball +0.232, cube +0.474 at 0.5 s (0.191 -> 0.191); its catches: no reaction (the ball on
-    at +0.500, the cube +0.765: momentum made), the soft side dropped (ball -0.240, cube 0.000)."""
+    at +0.500, the cube +0.765: momentum made), the soft side dropped (ball -0.240, cube 0.000). Round 71: the rows
+    pinned to their contacts (``roll_contact`` false); ``default`` the default contact (roll_contact), its catch the
+    soft points' reaction dropped (``REACT_POINTS`` 0, read by the option's contact too)."""
     old = {k: getattr(rigid_sdf, k) for k in consts}
     for k, val in consts.items():
         setattr(rigid_sdf, k, val)
     try:
-        s, _, v = _round_scene("ball_beside", points, 0.25)
+        s, _, v = _round_scene("ball_beside", bool(points), 0.25, options={} if points is None else None)
     finally:
         for k, val in old.items():
             setattr(rigid_sdf, k, val)

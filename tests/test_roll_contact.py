@@ -1,6 +1,6 @@
 """Round 70 (issue 67 items 2 and 4; ``docs/rigid.md`` "Round 70: a ball rolling on a soft body, the exact sphere's
-contact"): the engine option ``roll_contact`` (``gasp_core.mpm.roll_contact``; warp_mpm's ``roll_grid.py``), off by
-default.
+contact"): the engine option ``roll_contact`` (``gasp_core.mpm.roll_contact``; warp_mpm's ``roll_grid.py``), on by
+default since round 71 (``docs/rigid.md`` "Round 71: roll_contact as the default"; off: ``roll_contact = false``).
 
 Default tier: the reference (the exact sphere of a lattice ball, a patch's least distance, the patch friction's
 step), the option's declaration and what it gives the engine (``rigid_sdf.point_data``). Slow tier (warp_mpm,
@@ -77,18 +77,20 @@ def test_the_patch_friction_stops_the_mean_slip_and_caps_at_coulomb():
     assert np.allclose(roll.patch_friction(0.5, np.zeros(3), ut, 100.0, np.zeros(3)), 0.0)
 
 
-def test_the_option_is_declared_off_and_gives_the_engine_the_sphere():
-    """warp_mpm declares ``roll_contact`` (off); with it, ``rigid_sdf.point_data`` turns the point contact on for the
-    round body (its exact radius, 3 cm) and not for the slab; without it, nothing (round 63's band: the same launches
-    as before, ``warp_ordered_bits.py``)."""
+def test_the_option_is_declared_on_and_gives_the_engine_the_sphere():
+    """warp_mpm declares ``roll_contact`` (round 71: on by default); by default (and with it set true)
+    ``rigid_sdf.point_data`` turns the point contact on for the round body (its exact radius, 3 cm) and not for the
+    slab; with ``roll_contact = false``, nothing (round 63's band: the same launches as before,
+    ``warp_ordered_bits.py``)."""
     from gasp_core.mpm.rigid_pairs import pair_data
     from gasp_warp_mpm import WarpMPMConfig
     from ball_roll_soft import roll_setup
-    assert WarpMPMConfig().roll_contact is False
+    assert WarpMPMConfig().roll_contact is True and roll.ROLL_CONTACT.default is True
     s = roll_setup(32, 0.03, 0.5, 0.5, "elastic")
-    assert pair_data(s)[2]["points"] is None
-    pts = pair_data(s.replace(options={"roll_contact": True}))[2]["points"]
-    assert pts["roll"] == 1 and list(pts["on"]) == [1] and abs(pts["sphere"][0] / 0.03 - 1.0) < 0.005, pts["sphere"]
+    assert pair_data(s.replace(options={"roll_contact": False}))[2]["points"] is None
+    for opts in ({}, {"roll_contact": True}):
+        pts = pair_data(s.replace(options=opts))[2]["points"]
+        assert pts["roll"] == 1 and list(pts["on"]) == [1] and abs(pts["sphere"][0] / 0.03 - 1.0) < 0.005, pts
 
 
 # Slow tier (warp_mpm): the rolling checks of tests/test_ball_roll_bodies.py with the option on.

@@ -11,6 +11,9 @@ on one jelly slab (each keeps its rolling, no cross-talk: each as the same ball 
 slope at ``g sin theta / (1 + I / M R^2)``; a ball dropped on the jelly slab (no energy made, a rebound under the drop
 height, no point inside). A cylinder on the slope with the option: the default's band (strict xfail: it does not
 roll).
+
+Round 71 (``docs/rigid.md`` "Round 71: roll_contact as the default"): the option is on by default; its rows "off" set
+``roll_contact = false`` explicitly (``roll_neighbours._engine``), the band's figures as before.
 """
 from __future__ import annotations
 

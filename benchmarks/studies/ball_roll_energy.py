@@ -167,8 +167,8 @@ def run(contact: str, E, mu: float, n_grid: int = 32, R: float = 0.03, T: float 
     try:
         slab = "rigid" if E == "rigid" else "elastic"
         s = with_ppc(roll_setup(n_grid, R, v0, mu, slab, spin, seat=seat, E=1.0e5 if E == "rigid" else float(E)), ppc)
-        if name == "roll":   # round 70: the engine option roll_contact
-            s = s.replace(options={**s.options, "roll_contact": True})
+        # round 70: the engine option roll_contact; round 71: on by default, so the band and the point contact set it off
+        s = s.replace(options={**s.options, "roll_contact": name == "roll"})
         t0 = time.time()
         e = build_engine(get_engine(engine), s)
         bud = Budget(s, e, s.materials[1])

@@ -22,7 +22,8 @@ Round 67: ``--set GRID_PASSES=4`` the contact as a constraint of the grid (``PAT
 (no drop at the start), ``--E`` the slab's Young's modulus.
 
 Round 70: ``--roll`` the engine option ``roll_contact`` (``gasp_core.mpm.roll_contact``: the ball's exact sphere, the
-soft points' patches, friction one impulse a patch; warp_mpm).
+soft points' patches, friction one impulse a patch; warp_mpm). Round 71: the option is on by default; without
+``--roll`` this study sets it off (the band, or with ``--points 1`` the point contact), as its figures were taken.
 
 Figures: ``docs/rigid.md`` ("Round 65: a ball rolling on a soft slab", "Round 66: the point contact on a ball",
 "Round 67: the point contact as a constraint of the grid").
@@ -142,7 +143,7 @@ def main() -> None:
             for slab in a.slab:
                 for mu in a.mu:
                     r = measure_roll(a.engine, n, R, 0.5, mu, slab, a.T, a.spin, a.block, a.seat, a.E,
-                                     {"roll_contact": True} if a.roll else None)
+                                     {"roll_contact": bool(a.roll)})
                     print(f"| {a.engine} | {n} | {100 * R:g} | {slab} | {mu:g} | {r['v'][0]:.3f} -> {r['v'][1]:.3f} "
                           f"| {r['spin'][0]:.3f} -> {r['spin'][1]:.3f} | {r['rise']:+.2f} |", flush=True)
 

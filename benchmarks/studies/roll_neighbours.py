@@ -116,8 +116,7 @@ def slab_setup(n_grid: int, bodies: list, mu: float = 0.5, theta: float = 0.0, w
 def _engine(engine: str, s, roll: bool):
     from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import get_engine
-    if roll:
-        s = s.replace(options={**s.options, "roll_contact": True})
+    s = s.replace(options={**s.options, "roll_contact": bool(roll)})   # round 71: on by default, off set explicitly
     return build_engine(get_engine(engine), s)
 
 

@@ -65,11 +65,13 @@ def round_setup(case: str, n_grid: int = 32, E: float = 1.0e5, rho_ball: float =
 
 
 def measure(engine: str, case: str, n_grid: int = 32, E: float = 1.0e5, rho_ball: float = 1000.0,
-            v0: float = 0.5) -> dict:
-    """The figures of the module notes for ``case`` on ``engine`` (the switch as it stands)."""
+            v0: float = 0.5, roll: bool = False) -> dict:
+    """The figures of the module notes for ``case`` on ``engine`` (the switch as it stands; round 71: the engine option
+    ``roll_contact``, on by default, set to ``roll``: off, the contacts this study measured)."""
     from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import get_engine
     s = round_setup(case, n_grid, E, rho_ball, v0)
+    s = s.replace(options={**s.options, "roll_contact": bool(roll)})
     dx = s.dx
     body = np.asarray(s.body_id)
     x0 = np.asarray(s.x, float)

@@ -5,7 +5,8 @@ Round 69 measured where a rolling ball's energy goes on a jelly slab: not into t
 1e5) but into the contacts. Round 63's band loses the spin (the slab's normals at nodes the ball does not reach);
 round 66/67's point contact reads the slab's points as cobbles (``c_rr ~ s / 8R``), drops the ball 2.9 mm at the
 start (the lattice ball's blurred shape inside its points) and turns a frictionless ball by its facets' normals, and
-its friction per point loses 0.011-0.020 in ``c_rr`` more. The class named there, built here (off by default):
+its friction per point loses 0.011-0.020 in ``c_rr`` more. The class named there, built here (round 71: on by
+default; ``roll_contact = false`` takes round 63's band):
 
 * **the ball's exact shape**: a round rigid body whose points fill a sphere (:func:`sphere_radius`: its principal
   moments equal, no point beyond the sphere of its declared volume) is that sphere, of the radius its volume gives
@@ -43,10 +44,11 @@ import numpy as np
 from gasp_core.seam.options import Option
 
 ROLL_CONTACT = Option(
-    "roll_contact", False, "a round rigid body's contact with a soft body (round 70, docs/rigid.md): the ball's exact "
-    "sphere against each soft point's patch of its body's face, a constraint of the grid velocities, friction one "
-    "impulse a patch; false (the default): round 63's node band (a ball rolling on jelly loses its spin, with "
-    "friction it stops)", kind="bool")
+    "roll_contact", True, "a round rigid body's contact with a soft body (round 70, docs/rigid.md; the default since "
+    "round 71): true (the default): a sphere's exact shape against each soft point's patch of its body's face, a "
+    "constraint of the grid velocities, friction one impulse a patch (round bodies that are no sphere and bodies with "
+    "faces keep the band); roll_contact = false: round 63's node band for every rigid body (a ball rolling on jelly "
+    "loses its spin, with friction it stops)", kind="bool")
 
 #: Each soft point's patch half-size, cells (a quarter: half the points' spacing at 2 a cell, tiling the face).
 PATCH = 0.25
@@ -80,8 +82,8 @@ SPHERE_TOL = 0.05
 
 
 def on(setup) -> bool:
-    """Whether a setup asks for the option (its ``[engine] options``)."""
-    return bool(dict(getattr(setup, "options", None) or {}).get("roll_contact", False))
+    """Whether a setup takes the option (its ``[engine] options``; round 71: on unless ``roll_contact = false``)."""
+    return bool(dict(getattr(setup, "options", None) or {}).get("roll_contact", ROLL_CONTACT.default))
 
 
 def sphere_radius(X0: np.ndarray, volume: float, spacing: float) -> float:
