@@ -14,7 +14,10 @@ friction 0.5, 1.33 % without; docs/fracture.md).
 docs/fracture.md "Round 70: the trapezoid as the default"; an engine without trial passes refuses
 ``stress_passes`` > 1) advances ``F`` by the mean of the increment's start and end gradients and scatters the stress of
 that increment's midpoint, the end gradient from :data:`STRESS_PASSES` fixed-point passes (1: the start's as the
-guess): the trapezoidal rule, no gain and no damping on a free vibration.
+guess): the trapezoidal rule, no gain and no damping on a free vibration. Both "trapezoid" and "mid" scatter the
+symmetric part of their midpoint stress (round 71, docs/fracture.md "Round 71 (lead)"): the whole ``tau(F_mid)
+H^-T`` is not symmetric, and its antisymmetric part (about ``-dt/2 skew(tau C^T)``) is a torque that moved a free
+spun jelly ball's angular momentum by 8.4e-4 of itself in 4 frames (``tests/test_stress_spin.py``).
 
 ``"mid"`` scatters the work-conjugate stress of the increment's midpoint, ``P(F_mid) F^T = tau(F_mid) (I + dt/2
 C)^-T`` with ``F_mid = (I + dt/2 C) F``, ``C`` the point's last gradient (the fixed-point guess of the next one, one

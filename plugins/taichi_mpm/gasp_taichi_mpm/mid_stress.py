@@ -38,6 +38,10 @@ class MidStress:
     #: The midpoint's place in the increment (1/2; read when the kernels compile): the catch of
     #: ``tests/test_stress_at.py`` sets -1/2 (the stress extrapolated back, which gains).
     mid_fraction = 0.5
+    #: Scatter the symmetric part of the midpoint stress (round 71: its antisymmetric part, of order ``dt tau C``, is
+    #: a torque: a free spun jelly ball lost 8.4e-4 of its angular momentum in 4 frames; tests/test_stress_spin.py).
+    #: False, the broken variant (rounds 68-70); read when the kernels compile. warp_mpm's ``SYMMETRIC``.
+    symmetric = True
 
     @ti.func
     def trap_gradient(self, p, a, C, Cf):
@@ -65,5 +69,8 @@ class MidStress:
         if kind == JELLY or kind == NEO_HOOKEAN:
             prm = self.mat[b]
             H = ti.Matrix.identity(self.real, 3) + (ti.static(self.mid_fraction) * self.dt[None]) * C
-            out = self.elastic_tau(kind, H @ F, prm[P_MU], prm[P_LAM]) @ H.inverse().transpose()
+            S = self.elastic_tau(kind, H @ F, prm[P_MU], prm[P_LAM]) @ H.inverse().transpose()
+            out = S
+            if ti.static(self.symmetric):
+                out = 0.5 * (S + S.transpose())   # its symmetric part: no torque (round 71)
         return out

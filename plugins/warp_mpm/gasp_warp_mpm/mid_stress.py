@@ -23,6 +23,10 @@ MID_BIT = 8
 #: The midpoint's place in the increment (1/2; read when the kernel is built: a change needs a fresh process). The catch
 #: of ``tests/test_stress_at.py`` (taichi_mpm's ``MidStress.mid_fraction``) sets -1/2: the stress extrapolated back.
 MID_FRACTION = 0.5
+#: 1: scatter the symmetric part of the midpoint stress (round 71: its antisymmetric part, of order ``dt tau C``,
+#: is a torque: a free spun jelly ball lost 8.4e-4 of its angular momentum in 4 frames; tests/test_stress_spin.py).
+#: 0, the broken variant (rounds 68-70), a change needs a fresh process.
+SYMMETRIC = 1
 
 
 @functools.cache
@@ -41,6 +45,9 @@ def build_mid_stress(Ft):
             return tau
         H = wp.identity(3, dtype=Ft) + (frac * dt) * Cp
         Fm, tm = return_mapping(H * Fp, p, body, mat_kind, mat_par, Jp, dt, fx, 0)   # no Jp written for these two
-        return tm * wp.transpose(wp.inverse(H))
+        S = tm * wp.transpose(wp.inverse(H))
+        if SYMMETRIC == 0:
+            return S
+        return Ft(0.5) * (S + wp.transpose(S))   # its symmetric part: no torque (round 71)
 
     return mid_tau

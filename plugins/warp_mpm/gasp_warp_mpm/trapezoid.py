@@ -7,10 +7,11 @@ elastic step, converged by fixed-point passes:
   the one the point had at the P2G before, kept in ``C_prev``; the positions still move by the end velocity: the
   difference ``dt / 2 (C_{n+1} - C_n)`` telescopes over the run, so ``F`` and the positions differ by ``dt/2`` of a
   gradient, never more);
-- the stress: the work-conjugate stress of that increment's midpoint, ``tau(H F_n) H^-T`` with ``H = I + dt/2
-  C_avg``, where ``C_{n+1}`` is the guess ``C_guess``: pass 0 takes ``C_n`` (round 68's "mid"), each further pass the
-  ``C`` gathered by the pass before, a trial substep from the saved state (the points' ``x, v, C, F, Jp, C_prev``
-  copied before and back after; the grid's arrays are cleared by every substep).
+- the stress: the symmetric part of the work-conjugate stress of that increment's midpoint, ``tau(H F_n) H^-T``
+  with ``H = I + dt/2 C_avg`` (round 71: its antisymmetric part is a torque; mid_stress.py's ``SYMMETRIC``), where
+  ``C_{n+1}`` is the guess ``C_guess``: pass 0 takes ``C_n`` (round 68's "mid"), each further pass the ``C``
+  gathered by the pass before, a trial substep from the saved state (the points' ``x, v, C, F, Jp, C_prev`` copied
+  before and back after; the grid's arrays are cleared by every substep).
 
 On the oscillator ``m x'' = -k x`` this is the trapezoidal rule (``det = 1``: no gain, no damping) once converged; the
 start's stress with the end velocity is symplectic Euler (bounded), round 68's "mid" a damping of ``dt/2`` (``det = 1
