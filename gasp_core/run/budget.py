@@ -22,12 +22,13 @@ NOTE_S = 600.0
 MAX_S = 24 * 3600.0
 #: Point-substeps per second taken as the fastest any engine runs (for the refusal before the first frame).
 FAST_RATE = 1e9
-#: Point-substeps a second of the 2-core CPU the project is measured on: the README donut (65,036 points, 69
-#: substeps a frame, 36 frames in 44 s on a quiet machine, kernels cached: README; 5e6 until issue 68, taken when it
-#: ran 94 substeps, estimated it at 32 s). What ``gasp place`` and ``gasp simulate`` estimate a run's time at before
-#: it starts: a rate, not a promise (an H100 ran 11-40 times faster, a loaded machine slower: the quick start took
-#: 61 s at load 1, 193 s at load 5-7; a first run adds its kernels' compilation, frame 1: 16.7 s).
-CPU_RATE = 3.7e6
+#: Point-substeps a second of the 2-core CPU the project is measured on, the whole run's wall time (kernels cached,
+#: frames written): the README donut (66,071 points, 79 substeps a frame, 36 frames stepped in 111 s on a quiet
+#: machine, round 71's fresh clone of 60b1da04 under the trapezoid stress and the symmetrised midpoint: 1.69e6). Was
+#: 3.7e6 from issue 68 to round 71 (65,036 points x 69 substeps in 44 s, under the "start" stress), 5e6 before. What
+#: ``gasp place`` and ``gasp simulate`` estimate a run's time at before it starts: a rate, not a promise (an H100 ran
+#: 11-40 times faster, a loaded machine slower; a first run adds its kernels' compilation, frame 1: 16.7 s).
+CPU_RATE = 1.7e6
 #: What ``gasp simulate`` says of the time before it starts (the line after the bytes it writes, issue 68).
 TAKES = ("gasp: the run takes about {time} on a 2-core CPU ({points:,} points x {substeps} substeps x {frames} "
          "frames at {rate:.2g} point-substeps/s, docs/performance.md; an H100 ran 11-40 times faster{load})")
