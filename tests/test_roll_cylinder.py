@@ -280,10 +280,11 @@ def test_a_cylinder_rolls_or_slips_down_a_jelly_slope(engine, R, L, mu, consts, 
 def _rest_ok(r: dict, dx: float) -> bool:
     """At rest on the slab 0.6 s: the slab's support over the weight 1 within 5 % (0.3-0.6 s), no slab point inside the
     exact cylinder by 0.25 dx nor its face a half cell under it (depth in (-0.5, 0.25) dx: the face's points lie 0.25 dx
-    under it), its height still within 0.05 dx over the last 0.3 s, its sway along x under 0.5 dx (it does not roll
-    away)."""
-    return (abs(r["support"] - 1.0) < TOL and -0.5 < r["depth"] < 0.25 and r["z_mm"] < 0.05 * dx * 1e3
-            and r["sway_mm"] < 0.5 * dx * 1e3)
+    under it), its drop from the start (the jelly's dent, measured 0.03-0.05 dx: under the lattice's resolution, no 5 %
+    check of it) within the house's rest tolerance, 0.1 dx, either way, its height still within 0.05 dx over the last
+    0.3 s, its sway along x under 0.5 dx (it does not roll away)."""
+    return (abs(r["support"] - 1.0) < TOL and -0.5 < r["depth"] < 0.25 and abs(r["drop"]) < 0.1
+            and r["z_mm"] < 0.05 * dx * 1e3 and r["sway_mm"] < 0.5 * dx * 1e3)
 
 
 @pytest.mark.slow
@@ -292,8 +293,9 @@ def _rest_ok(r: dict, dx: float) -> bool:
                                            (*BODIES[1], {"CYL_AXIS": 1}, False),
                                            (*BODIES[0], {"STIFFNESS": 0.02}, False)])
 def test_a_cylinder_rests_on_a_jelly_slab(engine, R, L, consts, ok):
-    """``rest``; the catches: ``CYL_AXIS`` 1 (R 4.5 cm, 6 cm long read standing: it sinks 1.5 cm into the slab) and
-    the soft points' compliance 50 times too soft (``STIFFNESS`` 0.02)."""
+    """``rest``; the catches: ``CYL_AXIS`` 1 (R 4.5 cm, 6 cm long read standing: it sinks a cell into the slab, depth
+    0.74 dx) and the soft points' compliance 50 times too soft (``STIFFNESS`` 0.02: it sinks 0.29 dx). (``CYLINDER`` 0,
+    the band, rests too: no catch here; the rolling checks catch it.)"""
     _need(engine)
     from roll_cylinder import rest
     r = _with(consts, rest, engine, 32, R, L)
