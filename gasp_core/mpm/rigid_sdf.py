@@ -217,7 +217,7 @@ def point_data(setup, bodies) -> dict:
         on = (bool(POINT_CONTACT) or rolls) and round_body(pts)
         if on and rolls and roll.EXACT:
             sphere[i] = roll.sphere_radius(pts, float(vol[sel].sum()), point_spacing(pts))
-        if rolls and roll.EXACT and roll.CYLINDER and not POINT_CONTACT and not sphere[i]:
+        if rolls and roll.EXACT and roll.CYLINDER and not POINT_CONTACT and not sphere[i] and len(pts) >= 8:
             cyl[i] = roll.cylinder_shape(pts, float(vol[sel].sum()), point_spacing(pts))   # round 72 (faces: no
             on = on or bool(cyl[i, 0] > 0.0)                                                # round_body)
         if on and rolls and not POINT_CONTACT and roll.EXACT and not sphere[i] and not cyl[i, 0] and roll.FALLBACK:

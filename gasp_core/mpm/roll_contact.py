@@ -76,7 +76,8 @@ STIFFNESS = 1.0
 EXACT = 1
 PATCH_FRICTION = 1
 SURFACE_ARM = 1
-#: Round 71: a round rigid body that is not a sphere (an ellipsoid, a cylinder; :func:`sphere_radius` 0) takes the
+#: Round 71: a round rigid body that is not a sphere (an ellipsoid; :func:`sphere_radius` 0; round 72: not a solid
+#: cylinder, :func:`cylinder_shape`, unless :data:`CYLINDER` 0) takes the
 #: default contact under the option (round 63's node band, as with the option off: the same launches, the same bits),
 #: not the lattice shape of round 66/67's point contact (``rigid_sdf.round_body``), which the option never tuned.
 #: 0: the broken variant (round 70's behaviour: such a body takes the lattice's point contact under the option).
