@@ -82,7 +82,8 @@ def slope(engine: str, n_grid: int = 32, R: float = 0.03, L: float = 0.06, mu: f
            "wR_over_v": r["wR"][-1] / r["v"][-1]}
     if not rolls:
         w_closed = mu * G * np.cos(th) / k
-        out.update(w_slope=_fit(r["t"], r["wR"]), w_closed=float(w_closed), w_err=_fit(r["t"], r["wR"]) / w_closed - 1.0)
+        w = _fit(r["t"], r["wR"])
+        out.update(w_slope=w, w_closed=float(w_closed), w_err=w / w_closed - 1.0)
     return out
 
 

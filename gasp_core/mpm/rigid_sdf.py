@@ -194,7 +194,7 @@ def point_data(setup, bodies) -> dict:
     (n, 3) float32, "origin": (n_slots, 3), "h": (n_slots,), "dims": (4 n_slots,) int32 (each slot's shape and its
     first voxel), "comp": (n_bodies,) float64 (round 67: each body's points' compliance, m/N, :data:`STIFFNESS`),
     "sphere": (n_slots,) float64 (round 70, the option ``roll_contact``: a sphere's exact radius, m; 0: its lattice),
-    "cylinder": (n_slots, 5) float64 (round 72: a solid cylinder's radius, half-length, axis in its rest frame; 0s none),
+    "cylinder": (n_slots, 5) float64 (round 72: a solid cylinder's radius, half-length, rest-frame axis; 0s: none),
     "roll": 1 where the option is on}``;
     a body with faces a one-voxel lattice (no contact), and a sphere too. All off without :data:`POINT_CONTACT` or
     ``roll_contact``."""

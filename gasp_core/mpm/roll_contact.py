@@ -55,8 +55,8 @@ ROLL_CONTACT = Option(
     "roll_contact", True, "a round rigid body's contact with a soft body (round 70, docs/rigid.md; the default since "
     "round 71): true (the default): a sphere's (round 72: or a solid cylinder's) exact shape against each soft "
     "point's patch of its body's face, a constraint of the grid velocities, friction one impulse a patch (other round "
-    "bodies and bodies with faces keep the band); roll_contact = false: round 63's node band for every rigid body (a ball rolling on jelly "
-    "loses its spin, with friction it stops)", kind="bool")
+    "bodies and bodies with faces keep the band); roll_contact = false: round 63's node band for every rigid body "
+    "(a ball rolling on jelly loses its spin, with friction it stops)", kind="bool")
 
 #: Each soft point's patch half-size, cells (a quarter: half the points' spacing at 2 a cell, tiling the face).
 PATCH = 0.25
