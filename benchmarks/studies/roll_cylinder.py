@@ -23,12 +23,17 @@ the cylinder rho 1000, radius ``R``, length ``L``; frames of 1/240 s):
   a cylinder at rest on a flat face is in neutral equilibrium for rolling; the start's kick rocks it in the lattice's
   well, module figures in the docs).
 
+* ``yaw``: lying on the frictionless slab (the slab on a ground of friction 1), spun about the vertical at 10 rad/s
+  for 0.2 s (1/240 s frames; it turns about 115 degrees): the contact's axis must turn with the body (``R e0``). The
+  angle turned, the deepest slab point inside the exact cylinder at its pose (dx, over the run) and the centre's
+  largest drop (dx).
+
     python benchmarks/studies/roll_cylinder.py --engine warp_mpm taichi_mpm --scene flat slope rest \\
         --n-grid 32 48 --body 3,6 4.5,6 3,9
 
 ``--set NAME=VALUE`` sets a constant of ``gasp_core.mpm.roll_contact`` (else ``rigid_sdf``): the broken variants
-``CYLINDER=0`` (round 71's fallback, the band), ``CYL_AXIS=1`` (a wrong axis), ``SURFACE_ARM=0`` (the arm at the
-patch); ``--roll 0`` the option off.
+``CYLINDER=0`` (round 71's fallback, the band), ``CYL_AXIS=1`` (a wrong axis), ``CYL_TURN=0`` (the axis turned the
+wrong way), ``SURFACE_ARM=0`` (the arm at the patch); ``--roll 0`` the option off.
 """
 from __future__ import annotations
 
@@ -133,6 +138,33 @@ def rest(engine: str, n_grid: int = 32, R: float = 0.03, L: float = 0.06, T: flo
             "sway_mm": 1e3 * float(max(abs(r["c"][0] - c0[0]) for r in rows))}
 
 
+def yaw(engine: str, n_grid: int = 32, R: float = 0.03, L: float = 0.06, wz: float = 10.0, T: float = 0.2,
+        roll: bool = True) -> dict:
+    """The ``yaw`` scene's figures (module notes)."""
+    s = slab_setup(n_grid, [(_shape(L), R, (0.0, 0.0), 0.0, 0.0)], mu=0.0, ground_mu=1.0)
+    body = np.asarray(s.body_id)
+    q = body == 0
+    x = np.asarray(s.x, float)
+    m = np.broadcast_to(np.asarray(s.p_vol, float), body.shape) * 1000.0
+    c0 = m[q] @ x[q] / m[q].sum()
+    v = np.zeros_like(x)
+    v[q] = np.cross([0.0, 0.0, wz], x[q] - c0)
+    C = np.asarray(s.C, float).copy()
+    C[q] = np.array([[0.0, -wz, 0.0], [wz, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    e = _engine(engine, s.replace(v=v, C=C), roll)
+    depth, drop, turned = -np.inf, 0.0, 0.0
+    for _ in range(round(T / s.frame_dt)):
+        e.step_frame()
+        xx = e.positions().astype(float)
+        c = m[q] @ xx[q] / m[q].sum()
+        ax = _kabsch(x[q] - c0, xx[q] - c) @ np.array([0.0, 1.0, 0.0])
+        depth = max(depth, float(-cyl_distance(xx[body == 1], c, ax, R, L / 2).min()))
+        drop = max(drop, float(c0[2] - c[2]))
+        turned = float(np.degrees(np.arctan2(-ax[0], ax[1])) % 360.0)
+    e.close()
+    return {"turned_deg": turned, "depth": depth / s.dx, "drop": drop / s.dx}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--engine", nargs="+", default=["warp_mpm"])
@@ -165,6 +197,9 @@ def main() -> None:
                         r = slope(eng, ng, R, L, mu, a.theta, roll=bool(a.roll), c_rr=c_rr)
                         print(tag, f"slope mu {mu:g}", {k: (round(v, 4) if isinstance(v, float) else v)
                                                          for k, v in r.items()}, flush=True)
+                if "yaw" in a.scene:
+                    r = yaw(eng, ng, R, L, roll=bool(a.roll))
+                    print(tag, "yaw", {k: round(v, 4) for k, v in r.items()}, flush=True)
                 if "rest" in a.scene:
                     r = rest(eng, ng, R, L, a.rest_T, roll=bool(a.roll))
                     print(tag, "rest", {k: round(v, 4) for k, v in r.items()}, flush=True)

@@ -32,7 +32,8 @@ Broken variants for the checks: :data:`EXACT` 0 takes the lattice ball's shape (
 sphere's; :data:`SURFACE_ARM` 0 the arm at the patch; :data:`PATCH_FRICTION` 0 round 67's friction per point;
 ``rigid_collider.FRICTION`` 0 no friction; round 71: :data:`FALLBACK` 0 a round body that is no sphere takes the
 lattice's point contact, :data:`PAIRS` 0 every slot's patch one (cross-talk); round 72: :data:`CYLINDER` 0 a
-cylinder takes the FALLBACK again, :data:`CYL_AXIS` 1 a wrong axis (the body frame's next axis).
+cylinder takes the FALLBACK again, :data:`CYL_AXIS` 1 a wrong axis (the body frame's next axis), :data:`CYL_TURN` 0
+the axis turned the wrong way.
 
 Round 71 (``docs/rigid.md`` "Round 71: roll_contact on neighbours' scenes"): a round rigid body that is not a sphere
 (an ellipsoid; a cylinder or a cube has faces and never took the point contact) takes the default contact under the
@@ -91,6 +92,9 @@ CYLINDER = 1
 #: Round 72: a broken variant: CYL_AXIS k > 0 takes the body frame's axis ``(i + k) % 3`` for the cylinder's axis ``i``
 #: (a wrong axis); 0: the axis its points give.
 CYL_AXIS = 0
+#: Round 72: a broken variant: CYL_TURN 0 turns the cylinder's axis by the transpose of the body's rotation (the wrong
+#: way; 1: ``R e0``, the body's).
+CYL_TURN = 1
 #: Round 72: the coordinate-descent sweeps of the patch's point nearest the cylinder's axis (:func:`cylinder_patch`).
 CYL_SWEEPS = 4
 #: A body is a sphere where its principal moments agree within this fraction and no point lies beyond the sphere of

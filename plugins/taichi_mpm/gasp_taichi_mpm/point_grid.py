@@ -26,6 +26,8 @@ class PointGrid(RollGrid):
     pg_fmul = 1.0
     pg_sarm = 1
     pg_hascyl = False
+    rg_turn = 1
+    rg_sweeps = 4
 
     def allocate_grid(self, points) -> None:
         from gasp_core.mpm import rigid_sdf
@@ -48,6 +50,7 @@ class PointGrid(RollGrid):
         self.pg_cyl = ti.field(ti.f64, shape=(ns, 5))   # round 72: a cylinder's radius, half-length, axis (R 0: none)
         self.pg_cyl.from_numpy(np.asarray(points.get("cylinder", np.zeros((ns, 5))), np.float64).reshape(ns, 5))
         self.rg_sweeps = int(roll.CYL_SWEEPS)
+        self.rg_turn = int(roll.CYL_TURN)
         self.pg_hascyl = bool(np.asarray(points.get("cylinder", np.zeros((ns, 5))))[:, 0].any())
         self.pg_pf = self.pg_roll and bool(roll.PATCH_FRICTION)
         self.pg_fmul = 0.0 if self.pg_pf else 1.0   # the normal passes frictionless under the patch friction

@@ -78,7 +78,10 @@ class RollGrid:
             c = self.rb_c[rb]
             R, h = self.pg_cyl[s, 0], self.pg_cyl[s, 1]
             if self.rc_pt[s] != 0 and R > 0.0 and (xp - c).norm() < ti.sqrt(R * R + h * h) + skin + 6.0 * pm:
-                e = (self.rb_R[rb] @ ti.Vector([self.pg_cyl[s, 2], self.pg_cyl[s, 3], self.pg_cyl[s, 4]])).normalized()
+                Rb = self.rb_R[rb]
+                if ti.static(self.rg_turn == 0):   # a broken variant: the axis turned the wrong way
+                    Rb = Rb.transpose()
+                e = (Rb @ ti.Vector([self.pg_cyl[s, 2], self.pg_cyl[s, 3], self.pg_cyl[s, 4]])).normalized()
                 dw = [fx - 1.5, -2.0 * (fx - 1.0), fx - 0.5]
                 gm = ti.Vector.zero(ti.f64, 3)
                 for i, j, k in ti.static(ti.ndrange(3, 3, 3)):

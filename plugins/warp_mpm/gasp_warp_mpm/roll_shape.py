@@ -69,6 +69,15 @@ def cyl_patch(xp: vec3d, m: vec3d, patch: wp.float64, c: vec3d, rot: mat33d, cyl
 
 
 @wp.func
+def cyl_rot(rot: mat33d, turn: int):
+    """The body's rotation (``turn`` 0, a broken variant: its transpose, the axis turned the wrong way)."""
+    r = rot
+    if turn == 0:
+        r = wp.transpose(rot)
+    return r
+
+
+@wp.func
 def cyl_near(xp: vec3d, c: vec3d, cyl: wp.array(dtype=wp.float64), s: int, skin: wp.float64, patch: wp.float64):
     """Whether slot ``s`` is a cylinder (radius > 0) whose bounding sphere, with the skin and a cell (4 patches), holds
     the point ``xp``."""
