@@ -2,15 +2,15 @@
 engine option ``roll_contact`` on scenes it was not tuned on (``benchmarks/studies/roll_neighbours.py``), on both
 engines, each check two-sided and shown to catch a broken variant.
 
-Default tier: round rigid bodies that are not spheres (a cylinder, an ellipsoid) and a cube take the default contact
+Default tier: round rigid bodies that are not spheres (an ellipsoid; round 72: not a cylinder) and a cube take the default contact
 under the option (round 63's node band: ``rigid_sdf.point_data``'s ``on`` 0), the same bits as the option off; the
 catch is ``roll_contact.FALLBACK`` 0 (round 70's: the ellipsoid took the lattice's point contact).
 
 Slow tier: a jelly cube resting on a heavy rigid ball (statics, no point inside the sphere, still); two balls rolling
 on one jelly slab (each keeps its rolling, no cross-talk: each as the same ball alone); a ball rolling down a jelly
 slope at ``g sin theta / (1 + I / M R^2)``; a ball dropped on the jelly slab (no energy made, a rebound under the drop
-height, no point inside). A cylinder on the slope with the option: the default's band (strict xfail: it does not
-roll).
+height, no point inside). A cylinder on the slope with the option (round 72: its exact cylinder rolls; it was a strict
+xfail).
 
 Round 71 (``docs/rigid.md`` "Round 71: roll_contact as the default"): the option is on by default; its rows "off" set
 ``roll_contact = false`` explicitly (``roll_neighbours._engine``), the band's figures as before.
@@ -50,13 +50,14 @@ def _with(consts: dict, fn, *args, **kw):
             setattr(mods[k], k, v)
 
 
-@pytest.mark.parametrize("shape,on", [("cyl", 0), ("ellipsoid", 0), ("cube", 0), ("ball", 1)])
+@pytest.mark.parametrize("shape,on", [("cyl", 1), ("ellipsoid", 0), ("cube", 0), ("ball", 1)])
 @pytest.mark.parametrize("fallback", [1, 0])
 def test_round_bodies_that_are_not_spheres_take_the_default_contact(shape, on, fallback):
-    """Under the option a sphere takes the exact contact (its 3 cm radius); a cylinder, an ellipsoid and a cube take
+    """Under the option a sphere takes the exact contact (its 3 cm radius), and since round 72 a solid cylinder its
+    exact cylinder (``roll_contact.cylinder_shape``; ``tests/test_roll_cylinder.py``); an ellipsoid and a cube take
     none of the point contact (round 63's band, the default's). The catch: ``FALLBACK`` 0 gives the ellipsoid the
-    lattice's point contact (round 70's behaviour), which the option never tuned (the cylinder and the cube have flat
-    faces, ``rigid_sdf.round_body`` False: the band either way)."""
+    lattice's point contact (round 70's behaviour), which the option never tuned (the cube has flat faces,
+    ``rigid_sdf.round_body`` False: the band either way)."""
     from gasp_core.mpm.rigid_pairs import pair_data
     from roll_neighbours import slab_setup
     s = slab_setup(32, [(shape, 0.03, (-0.08, 0.0), 0.5, 1.0)]).replace(options={"roll_contact": True})
@@ -65,15 +66,20 @@ def test_round_bodies_that_are_not_spheres_take_the_default_contact(shape, on, f
     if shape == "ellipsoid" and not fallback:
         assert got == 1 and pts["sphere"][0] == 0.0   # the catch: the lattice's contact, not a sphere
         return
+    if shape == "cyl":
+        assert got == 1 and pts["sphere"][0] == 0.0 and abs(pts["cylinder"][0][0] / 0.03 - 1.0) < 0.005, pts
+        return
     assert got == on and (abs(pts["sphere"][0] / 0.03 - 1.0) < 0.005 if on else pts["sphere"][0] == 0.0), pts
+    assert not pts["cylinder"][0].any()
 
 
 @pytest.mark.parametrize("engine", ["warp_mpm", pytest.param("taichi_mpm", marks=pytest.mark.slow)])
-@pytest.mark.parametrize("shape,consts,same", [("ellipsoid", {}, True), ("cyl", {}, True),
-                                               ("ellipsoid", {"FALLBACK": 0}, False)])
+@pytest.mark.parametrize("shape,consts,same", [("ellipsoid", {}, True), ("cyl", {"CYLINDER": 0}, True),
+                                               ("ellipsoid", {"FALLBACK": 0}, False), ("cyl", {}, False)])
 def test_non_spheres_with_the_option_give_the_options_off_bits(engine, shape, consts, same):
-    """A cylinder and an ellipsoid (R 3 cm) rolling at 0.5 m/s on the jelly slab: the option on gives the option
-    off's positions bit for bit after 12 frames (the default's launches); ``FALLBACK`` 0 does not (the catch)."""
+    """An ellipsoid (R 3 cm) rolling at 0.5 m/s on the jelly slab: the option on gives the option off's positions bit
+    for bit after 12 frames (the default's launches); ``FALLBACK`` 0 does not (the catch). Round 72: a cylinder takes
+    its exact contact (not the option off's bits); with ``CYLINDER`` 0 round 71's fallback, the option off's bits."""
     _need(engine)
     from roll_neighbours import same_bits
     r = _with(consts, same_bits, engine, shape)
@@ -149,10 +155,11 @@ def test_a_ball_rolls_down_a_jelly_slope(engine, roll_on, consts, ok):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="a cylinder is no sphere: under the option it takes the default's band, which "
-                   "holds it on the jelly slope (a 0.00 of 2/3 g sin theta's 2.24 m/s^2, docs/rigid.md Round 71)")
 @pytest.mark.parametrize("engine", ENGINES)
 def test_a_cylinder_rolls_down_a_jelly_slope_with_the_option(engine):
+    """Round 72 (was a strict xfail: round 71's fallback held the cylinder): the exact cylinder rolls at ``2/3 g sin``
+    (the lattice's ``I``) within 5 %, ``w R / v`` 1 within 5 % (``tests/test_roll_cylinder.py``: the family and the
+    catches)."""
     _need(engine)
     from roll_neighbours import slope
     assert _slope_ok(slope(engine, 32, True, "cyl"))

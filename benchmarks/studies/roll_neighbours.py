@@ -57,14 +57,14 @@ def cylinder_points(c, R: float, L: float, spacing: float) -> tuple[np.ndarray, 
 
 
 def body_points(shape: str, c, R: float, spacing: float) -> tuple[np.ndarray, float]:
-    """A rigid body's points: ``ball`` (radius R), ``cyl`` (radius R, length 6 cm along y), ``ellipsoid`` (semi-axes
+    """A rigid body's points: ``ball`` (radius R), ``cyl`` (radius R, length 6 cm along y; ``cylL``: L cm), ``ellipsoid`` (semi-axes
     R, R, 0.7 R), ``cube`` (side 2 R)."""
     from gasp_core.testing.helpers import box_points, sphere_points
     c = np.asarray(c, float)
     if shape == "ball":
         return sphere_points(c, R, spacing)
-    if shape == "cyl":
-        return cylinder_points(c, R, 0.06, spacing)
+    if shape.startswith("cyl"):   # round 72: "cyl9" a cylinder 9 cm long (roll_cylinder.py)
+        return cylinder_points(c, R, float(shape[3:]) / 100.0 if len(shape) > 3 else 0.06, spacing)
     if shape == "ellipsoid":
         x, _ = box_points(c - R, c + R, spacing)
         q = (x - c) / [R, R, 0.7 * R]

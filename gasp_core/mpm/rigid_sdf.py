@@ -194,6 +194,7 @@ def point_data(setup, bodies) -> dict:
     (n, 3) float32, "origin": (n_slots, 3), "h": (n_slots,), "dims": (4 n_slots,) int32 (each slot's shape and its
     first voxel), "comp": (n_bodies,) float64 (round 67: each body's points' compliance, m/N, :data:`STIFFNESS`),
     "sphere": (n_slots,) float64 (round 70, the option ``roll_contact``: a sphere's exact radius, m; 0: its lattice),
+    "cylinder": (n_slots, 5) float64 (round 72: a solid cylinder's radius, half-length, rest-frame axis; 0s: none),
     "roll": 1 where the option is on}``;
     a body with faces a one-voxel lattice (no contact), and a sphere too. All off without :data:`POINT_CONTACT` or
     ``roll_contact``."""
@@ -208,6 +209,7 @@ def point_data(setup, bodies) -> dict:
     vol = np.broadcast_to(np.asarray(setup.p_vol, np.float64), body.shape)
     out = {"on": np.zeros(len(bodies), np.int32), "phi": [], "grad": [], "origin": [], "h": [], "dims": []}
     sphere = np.zeros(len(bodies), np.float64)
+    cyl = np.zeros((len(bodies), 5), np.float64)   # round 72: a cylinder's [R, h, axis in its rest frame]; R 0 none
     base = 0
     for i, k in enumerate(bodies):
         sel = (body == k) & (mass > 0)
@@ -215,10 +217,13 @@ def point_data(setup, bodies) -> dict:
         on = (bool(POINT_CONTACT) or rolls) and round_body(pts)
         if on and rolls and roll.EXACT:
             sphere[i] = roll.sphere_radius(pts, float(vol[sel].sum()), point_spacing(pts))
-        if on and rolls and not POINT_CONTACT and roll.EXACT and not sphere[i] and roll.FALLBACK:
+        if rolls and roll.EXACT and roll.CYLINDER and not POINT_CONTACT and not sphere[i] and len(pts) >= 8:
+            cyl[i] = roll.cylinder_shape(pts, float(vol[sel].sum()), point_spacing(pts))   # round 72 (faces: no
+            on = on or bool(cyl[i, 0] > 0.0)                                                # round_body)
+        if on and rolls and not POINT_CONTACT and roll.EXACT and not sphere[i] and not cyl[i, 0] and roll.FALLBACK:
             on = False   # round 71: a round body not a sphere takes the default (round 63's band), not the lattice
         out["on"][i] = int(on)
-        sdf = body_sdf(pts, dx) if on and not sphere[i] else {"origin": np.zeros(3), "h": 1.0, "phi": np.ones((1, 1, 1)),
+        sdf = body_sdf(pts, dx) if on and not sphere[i] and not cyl[i, 0] else {"origin": np.zeros(3), "h": 1.0, "phi": np.ones((1, 1, 1)),
                                              "grad": np.zeros((1, 1, 1, 3))}
         out["phi"].append(sdf["phi"].reshape(-1))
         out["grad"].append(sdf["grad"].reshape(-1, 3))
@@ -230,6 +235,6 @@ def point_data(setup, bodies) -> dict:
     k = float(roll.STIFFNESS if rolls else STIFFNESS)
     comp = np.asarray([0.0 if k <= 0.0 or m.model == "rigid" else 1.0 / (k * float(m.E) * 0.5 * dx)
                        for m in setup.materials], np.float64)
-    return {"comp": comp, "on": out["on"], "sphere": sphere, "roll": int(rolls), "phi": np.concatenate(out["phi"]).astype(np.float32),
+    return {"comp": comp, "on": out["on"], "sphere": sphere, "cylinder": cyl, "roll": int(rolls), "phi": np.concatenate(out["phi"]).astype(np.float32),
             "grad": np.concatenate(out["grad"]).astype(np.float32), "origin": np.asarray(out["origin"], np.float64),
             "h": np.asarray(out["h"], np.float64), "dims": np.asarray(out["dims"], np.int32)}

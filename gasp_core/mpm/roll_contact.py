@@ -31,11 +31,20 @@ ball's velocity at that depth (``v = w (R + s/2)``: the ball slips).
 Broken variants for the checks: :data:`EXACT` 0 takes the lattice ball's shape (round 66's ``body_sdf``) for the
 sphere's; :data:`SURFACE_ARM` 0 the arm at the patch; :data:`PATCH_FRICTION` 0 round 67's friction per point;
 ``rigid_collider.FRICTION`` 0 no friction; round 71: :data:`FALLBACK` 0 a round body that is no sphere takes the
-lattice's point contact, :data:`PAIRS` 0 every slot's patch one (cross-talk).
+lattice's point contact, :data:`PAIRS` 0 every slot's patch one (cross-talk); round 72: :data:`CYLINDER` 0 a
+cylinder takes the FALLBACK again, :data:`CYL_AXIS` 1 a wrong axis (the body frame's next axis), :data:`CYL_TURN` 0
+the axis turned the wrong way.
 
 Round 71 (``docs/rigid.md`` "Round 71: roll_contact on neighbours' scenes"): a round rigid body that is not a sphere
 (an ellipsoid; a cylinder or a cube has faces and never took the point contact) takes the default contact under the
 option, round 63's node band, the option off's bits.
+
+Round 72 (``docs/rigid.md`` "Round 72: a cylinder rolling on a soft body"): a rigid body whose points fill a solid
+circular cylinder (:func:`cylinder_shape`: its radius, half-length and axis in its rest frame) takes the exact contact
+too, as a second shape of the same contact: its capped cylinder's distance to each soft point's patch
+(:func:`cylinder_patch`: the patch's point nearest the axis, then the exact signed distance and normal there), the
+arm at the cylinder's surface point along the normal. Its axis turns with the body (the rotation ``R e0``). Other
+round bodies (an ellipsoid) keep the FALLBACK.
 """
 from __future__ import annotations
 
@@ -45,10 +54,10 @@ from gasp_core.seam.options import Option
 
 ROLL_CONTACT = Option(
     "roll_contact", True, "a round rigid body's contact with a soft body (round 70, docs/rigid.md; the default since "
-    "round 71): true (the default): a sphere's exact shape against each soft point's patch of its body's face, a "
-    "constraint of the grid velocities, friction one impulse a patch (round bodies that are no sphere and bodies with "
-    "faces keep the band); roll_contact = false: round 63's node band for every rigid body (a ball rolling on jelly "
-    "loses its spin, with friction it stops)", kind="bool")
+    "round 71): true (the default): a sphere's (round 72: or a solid cylinder's) exact shape against each soft "
+    "point's patch of its body's face, a constraint of the grid velocities, friction one impulse a patch (other round "
+    "bodies and bodies with faces keep the band); roll_contact = false: round 63's node band for every rigid body "
+    "(a ball rolling on jelly loses its spin, with friction it stops)", kind="bool")
 
 #: Each soft point's patch half-size, cells (a quarter: half the points' spacing at 2 a cell, tiling the face).
 PATCH = 0.25
@@ -68,7 +77,8 @@ STIFFNESS = 1.0
 EXACT = 1
 PATCH_FRICTION = 1
 SURFACE_ARM = 1
-#: Round 71: a round rigid body that is not a sphere (an ellipsoid, a cylinder; :func:`sphere_radius` 0) takes the
+#: Round 71: a round rigid body that is not a sphere (an ellipsoid; :func:`sphere_radius` 0; round 72: not a solid
+#: cylinder, :func:`cylinder_shape`, unless :data:`CYLINDER` 0) takes the
 #: default contact under the option (round 63's node band, as with the option off: the same launches, the same bits),
 #: not the lattice shape of round 66/67's point contact (``rigid_sdf.round_body``), which the option never tuned.
 #: 0: the broken variant (round 70's behaviour: such a body takes the lattice's point contact under the option).
@@ -76,6 +86,17 @@ FALLBACK = 1
 #: Round 71: the broken variant PAIRS 0 merges every slot's patch with a soft body into one (the pair index without
 #: its slot: two balls on one slab share one friction impulse, the cross-talk ``roll_neighbours.py``'s ``two`` reads).
 PAIRS = 1
+#: Round 72: 1: a rigid solid cylinder (:func:`cylinder_shape`) takes the exact contact; 0: the broken variant, round
+#: 71's FALLBACK for it (round 63's band: the cylinder does not roll on jelly).
+CYLINDER = 1
+#: Round 72: a broken variant: CYL_AXIS k > 0 takes the body frame's axis ``(i + k) % 3`` for the cylinder's axis ``i``
+#: (a wrong axis); 0: the axis its points give.
+CYL_AXIS = 0
+#: Round 72: a broken variant: CYL_TURN 0 turns the cylinder's axis by the transpose of the body's rotation (the wrong
+#: way; 1: ``R e0``, the body's).
+CYL_TURN = 1
+#: Round 72: the coordinate-descent sweeps of the patch's point nearest the cylinder's axis (:func:`cylinder_patch`).
+CYL_SWEEPS = 4
 #: A body is a sphere where its principal moments agree within this fraction and no point lies beyond the sphere of
 #: its volume by more than a point spacing.
 SPHERE_TOL = 0.05
@@ -134,3 +155,82 @@ def patch_friction(mu: float, lam: np.ndarray, ut: np.ndarray, S: float, J: np.n
     J1 = np.asarray(J, float) - (np.asarray(lam) @ np.asarray(ut)) / L / S
     n = float(np.linalg.norm(J1))
     return J1 * (mu * L / n) if n > mu * L else J1
+
+
+def cylinder_shape(X0: np.ndarray, volume: float, spacing: float) -> np.ndarray:
+    """Round 72: the exact solid cylinder of a rigid body's points ``X0`` ((N, 3) m about its mass centre, rest frame)
+    of total ``volume`` (m^3): ``[R, h, e0x, e0y, e0z]`` (radius, half-length, unit axis), or zeros where the points
+    fill no cylinder. Each principal axis (and each frame axis) is tried as the axis ``e0``: its length ``L`` from the
+    points' second moment along it, ``L^2 / 12 = <z^2> + s^2 / 12`` (each point a cube of side ``s``: the extent plus a
+    spacing for cell-centred points), ``R = sqrt(V / (pi L))``; it is a cylinder where no point lies beyond its ends or
+    ``R`` by more than a spacing, the points' second moment across it is the solid cylinder's within
+    :data:`SPHERE_TOL` (``<rho^2> + s^2/6 = R^2 / 2``), its cross-section is round (its support in
+    8 directions across the axis within a spacing of each other: a square's differ by 0.41 of its half-side) and each
+    end is a full disc (its last layer reaches ``R`` within a spacing: an ellipsoid's does not)."""
+    X0 = np.asarray(X0, float)
+    out = np.zeros(5)
+    if len(X0) < 8:
+        return out
+    _, vecs = np.linalg.eigh(np.sum(X0 * X0) * np.eye(3) - X0.T @ X0)
+    cands = [vecs[:, i] for i in range(3)] + list(np.eye(3))
+    s = float(spacing)
+    for e in cands:
+        e = e / np.linalg.norm(e)
+        z = X0 @ e
+        rr = X0 - np.outer(z, e)
+        rho = np.linalg.norm(rr, axis=1)
+        L = float(np.sqrt(12.0 * np.mean(z * z) + s * s))
+        R = float(np.sqrt(volume / (np.pi * L)))
+        if np.abs(z).max() > 0.5 * L + s:
+            continue
+        if abs((np.mean(rho * rho) + s * s / 6.0) / (R * R / 2.0) - 1.0) > SPHERE_TOL or rho.max() > R + s:
+            continue
+        t1 = np.cross(e, [1.0, 0.0, 0.0] if abs(e[0]) <= 0.9 else [0.0, 1.0, 0.0])
+        t1 /= np.linalg.norm(t1)
+        t2 = np.cross(e, t1)
+        sup = [float((rr @ (np.cos(a) * t1 + np.sin(a) * t2)).max()) for a in np.arange(8) * np.pi / 8.0]
+        if max(sup) - min(sup) > s:
+            continue
+        ends = [rho[z > z.max() - 0.5 * s].max(), rho[z < z.min() + 0.5 * s].max()]
+        if min(ends) < R - s:
+            continue
+        if CYL_AXIS:   # a broken variant: a wrong axis
+            e = np.roll(e, int(CYL_AXIS))
+        out[:] = [R, 0.5 * L, *e]
+        return out
+    return out
+
+
+def cylinder_patch(x: np.ndarray, m: np.ndarray, a: float, c: np.ndarray, e: np.ndarray, R: float,
+                   h: float) -> tuple[float, np.ndarray, np.ndarray]:
+    """``(phi, n, q)``: the square patch centred on ``x`` (3,), normal ``m``, half-size ``a`` (m), against the solid
+    capped cylinder of centre ``c``, unit axis ``e``, radius ``R``, half-length ``h`` (the kernels' read): the patch's
+    point ``x + q`` nearest the axis's line (:data:`CYL_SWEEPS` sweeps of coordinate descent over the square from its
+    centre: the distance squared to the line is a convex quadratic), the cylinder's signed distance and outward normal
+    there (the rim's where beyond both the side and the cap)."""
+    x, c, e = np.asarray(x, float), np.asarray(c, float), np.asarray(e, float)
+    d = x - c
+    q = np.zeros(3)
+    if np.linalg.norm(m) > 0.0 and a > 0.0:
+        t1, t2 = patch_frame(np.asarray(m, float))
+        a1, a2, b = t1 - (t1 @ e) * e, t2 - (t2 @ e) * e, d - (d @ e) * e
+        u = v = 0.0
+        for _ in range(CYL_SWEEPS):
+            if a1 @ a1 > 1e-12:
+                u = float(np.clip(-(a1 @ (b + v * a2)) / (a1 @ a1), -a, a))
+            if a2 @ a2 > 1e-12:
+                v = float(np.clip(-(a2 @ (b + u * a1)) / (a2 @ a2), -a, a))
+        q = u * t1 + v * t2
+    y = d + q
+    z = float(y @ e)
+    rr = y - z * e
+    rho = float(np.linalg.norm(rr))
+    dr, dz = rho - R, abs(z) - h
+    er = rr / max(rho, 1e-300)
+    ez = np.sign(z) * e
+    if dr > 0.0 and dz > 0.0:
+        phi = float(np.hypot(dr, dz))
+        return phi, (dr * er + dz * ez) / phi, q
+    if dr >= dz:
+        return dr, er, q
+    return dz, ez, q

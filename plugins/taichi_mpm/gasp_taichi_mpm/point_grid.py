@@ -25,6 +25,9 @@ class PointGrid(RollGrid):
     pg_roll = False
     pg_fmul = 1.0
     pg_sarm = 1
+    pg_hascyl = False
+    rg_turn = 1
+    rg_sweeps = 4
 
     def allocate_grid(self, points) -> None:
         from gasp_core.mpm import rigid_sdf
@@ -44,6 +47,11 @@ class PointGrid(RollGrid):
         self.pg_sph = ti.field(ti.f64, shape=ns)   # round 70: a sphere's exact radius (0: its lattice)
         self.pg_sph.from_numpy(np.asarray(points.get("sphere", np.zeros(ns)), np.float64))
         self.pg_sarm = int(roll.SURFACE_ARM)
+        self.pg_cyl = ti.field(ti.f64, shape=(ns, 5))   # round 72: a cylinder's radius, half-length, axis (R 0: none)
+        self.pg_cyl.from_numpy(np.asarray(points.get("cylinder", np.zeros((ns, 5))), np.float64).reshape(ns, 5))
+        self.rg_sweeps = int(roll.CYL_SWEEPS)
+        self.rg_turn = int(roll.CYL_TURN)
+        self.pg_hascyl = bool(np.asarray(points.get("cylinder", np.zeros((ns, 5))))[:, 0].any())
         self.pg_pf = self.pg_roll and bool(roll.PATCH_FRICTION)
         self.pg_fmul = 0.0 if self.pg_pf else 1.0   # the normal passes frictionless under the patch friction
         if self.pg_pf:
@@ -128,6 +136,8 @@ class PointGrid(RollGrid):
                                 dlt = q
                 if ti.static(self.pg_roll):   # round 70: a sphere's exact patch distance (roll_grid.py)
                     best, sb, nb, dlt = self.rg_sphere(xp, base, fx, w, f, skin, best, sb, nb, dlt)
+                    if ti.static(self.pg_hascyl):   # round 72: the cylinders' (roll_grid.py)
+                        best, sb, nb, dlt = self.rg_cylinder(xp, base, fx, w, f, skin, best, sb, nb, dlt)
                 self.pc_x[p] = dlt
                 if sb >= 0:
                     v = ti.Vector.zero(self.real, 3)

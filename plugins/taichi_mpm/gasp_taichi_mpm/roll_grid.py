@@ -66,6 +66,65 @@ class RollGrid:
         return b_out, s_out, n_out, d_out
 
     @ti.func
+    def rg_cylinder(self, xp, base, fx, w, f, skin, best, sb, nb, dlt):
+        """Round 72: ``pg_mark``'s read of the solid cylinders (``pg_cyl``: radius, half-length, rest-frame axis; the
+        axis turned by the body's rotation): the patch's point nearest the axis's line (``CYL_SWEEPS`` sweeps of
+        coordinate descent), the capped cylinder's signed distance and normal there, the arm at its surface point
+        (warp_mpm's ``roll_shape.cyl_patch``; ``gasp_core.mpm.roll_contact.cylinder_patch``)."""
+        pm = self.pg_patch * ti.cast(self.dx[None], ti.f64)
+        b_out, s_out, n_out, d_out = best, sb, nb, dlt
+        for s in range(self.rc_ns):
+            rb = self.rc_bodies[s]
+            c = self.rb_c[rb]
+            R, h = self.pg_cyl[s, 0], self.pg_cyl[s, 1]
+            if self.rc_pt[s] != 0 and R > 0.0 and (xp - c).norm() < ti.sqrt(R * R + h * h) + skin + 6.0 * pm:
+                Rb = self.rb_R[rb]
+                if ti.static(self.rg_turn == 0):   # a broken variant: the axis turned the wrong way
+                    Rb = Rb.transpose()
+                e = (Rb @ ti.Vector([self.pg_cyl[s, 2], self.pg_cyl[s, 3], self.pg_cyl[s, 4]])).normalized()
+                dw = [fx - 1.5, -2.0 * (fx - 1.0), fx - 0.5]
+                gm = ti.Vector.zero(ti.f64, 3)
+                for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
+                    m = ti.cast(self.pc_m[f, base + ti.Vector([i, j, k])], ti.f64)
+                    gm += m * ti.cast(ti.Vector([dw[i][0] * w[j][1] * w[k][2], w[i][0] * dw[j][1] * w[k][2],
+                                                 w[i][0] * w[j][1] * dw[k][2]]), ti.f64)
+                d = xp - c
+                q = ti.Vector.zero(ti.f64, 3)
+                if gm.norm() > 0.0 and pm > 0.0:
+                    mn = -gm.normalized()
+                    t1 = mn.cross(ti.Vector([1.0, 0.0, 0.0], ti.f64))
+                    if ti.abs(mn[0]) > 0.9:
+                        t1 = mn.cross(ti.Vector([0.0, 1.0, 0.0], ti.f64))
+                    t1 = t1.normalized()
+                    t2 = mn.cross(t1)
+                    a1, a2, b = t1 - t1.dot(e) * e, t2 - t2.dot(e) * e, d - d.dot(e) * e
+                    u, v = ti.cast(0.0, ti.f64), ti.cast(0.0, ti.f64)
+                    for _ in range(self.rg_sweeps):
+                        if a1.dot(a1) > 1.0e-12:
+                            u = ti.min(ti.max(-a1.dot(b + v * a2) / a1.dot(a1), -pm), pm)
+                        if a2.dot(a2) > 1.0e-12:
+                            v = ti.min(ti.max(-a2.dot(b + u * a1) / a2.dot(a2), -pm), pm)
+                    q = u * t1 + v * t2
+                y = d + q
+                z = y.dot(e)
+                rr = y - z * e
+                rho = rr.norm()
+                dr, dz = rho - R, ti.abs(z) - h
+                er = rr / ti.max(rho, 1.0e-300)
+                ez = e if z >= 0.0 else -e
+                phi, n = dz, ez
+                if dr > 0.0 and dz > 0.0:
+                    phi = ti.sqrt(dr * dr + dz * dz)
+                    n = (dr * er + dz * ez) / phi
+                elif dr >= dz:
+                    phi, n = dr, er
+                if phi < b_out:
+                    b_out, s_out, n_out, d_out = phi, s, n, q
+                    if ti.static(self.pg_sarm != 0):   # the arm to the cylinder's surface point
+                        d_out = q - phi * n
+        return b_out, s_out, n_out, d_out
+
+    @ti.func
     def rg_pair(self, p):
         k = -1
         if self.pc_s[p] >= 0 and self.pg_ln[p] > 0.0:

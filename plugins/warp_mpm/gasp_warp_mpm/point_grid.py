@@ -29,6 +29,7 @@ from .collider_pair import NA
 from .fields import build_field_reads
 from .precision import MODULE_OPTIONS, build_types
 from .rigid_pairs import mat33d, vec3d
+from .roll_shape import cyl_near, cyl_rot, cyl_take
 from .sdf_at import build_nearest, build_sdf_at
 from .stencil import build_gather, build_stencil, build_stencil_at
 
@@ -159,7 +160,7 @@ def build_point_grid(Ft):
                 pc_n: wp.array(dtype=vec3d), pc_b: wp.array(dtype=wp.float64), ln: wp.array(dtype=wp.float64),
                 lt: wp.array(dtype=vec3d), tw: wp.array(dtype=wp.float64), soft_c: wp.array(dtype=wp.float64),
                 pc_m: wp.array(dtype=Ft), patch: wp.float64, pc_x: wp.array(dtype=vec3d),
-                sph: wp.array(dtype=wp.float64), sarm: int):
+                sph: wp.array(dtype=wp.float64), sarm: int, cyl: wp.array(dtype=wp.float64), sweeps: int, turn: int):
         """A soft point's slot (``pc_s``: -1 none; the slot whose body's distance at it is least) where it is within
         the skin by the substep's end at its G2P velocity (linearly: ``phi + dt u_n < SKIN dx``), its normal, its
         target ``b`` (``u_n >= b``), its impulses cleared; its weights into ``tw`` (its field's nodes) and its arm
@@ -202,6 +203,9 @@ def build_point_grid(Ft):
                         dlt = q
                         if sarm != 0:   # the arm to the sphere's surface (its contact point; 0: a broken variant)
                             dlt = c + sph[s] * nb - xp
+                if rc_pt[s] != 0 and cyl_near(xp, c, cyl, s, skin, patch):   # round 72: a cylinder's (roll_shape.py)
+                    best, sb, nb, dlt = cyl_take(xp, soft_normal(pc_m, off, idx0, fx, n_grid), patch, c,
+                                                 cyl_rot(rot[bodies[s]], turn), cyl, s, sweeps, sarm, best, sb, nb, dlt)
             pc_x[p] = dlt
             if sb >= 0:
                 vg, B = gather(grid_v, grid_dv, off, W, idx0, n_grid)
@@ -340,6 +344,8 @@ def grid_launches(eng, Ft, passes: int, patch: float | None = None, fric: float 
     fric = rc.FRICTION if fric is None else fric
     eng.pg_sph = wp.array(np.asarray(eng.rc_points.get("sphere", np.zeros(eng.rc_ns)), np.float64),
                           dtype=wp.float64, device=eng.device)
+    eng.pg_cyl = wp.array(np.asarray(eng.rc_points.get("cylinder", np.zeros((eng.rc_ns, 5))), np.float64).reshape(-1),
+                          dtype=wp.float64, device=eng.device)   # round 72 (roll_shape.py)
     n, d, ns, ng = eng.n_material, eng.device, eng.rc_ns, eng.n_grid
     eng.pg_sl = wp.zeros(int(NS) * ns, dtype=wp.float64, device=d)
     eng.pg_ln = wp.zeros(n, dtype=wp.float64, device=d)
@@ -358,7 +364,8 @@ def grid_launches(eng, Ft, passes: int, patch: float | None = None, fric: float 
             *at, eng.rb_rigid, eng.rc_bodies, ns, eng.rb_c, eng.rb_R, dt, float(rigid_sdf.SKIN * eng.dx),
             float(rigid_sdf.BIAS), eng.pc_phi, eng.pc_grad, eng.pc_org, eng.pc_h, eng.pc_dim, eng.rc_pt, eng.pg_sl,
             eng.pc_s, eng.pc_n, eng.pc_b, eng.pg_ln, eng.pg_lt, eng.pg_tw, eng.pg_c, eng.pc_m,
-            float(patch * eng.dx), eng.pc_x, eng.pg_sph, int(roll.SURFACE_ARM)]),
+            float(patch * eng.dx), eng.pc_x, eng.pg_sph, int(roll.SURFACE_ARM), eng.pg_cyl, int(roll.CYL_SWEEPS),
+            int(roll.CYL_TURN)]),
         wp.launch(pre, dim=n, device=d, record_cmd=True, inputs=[
             eng.x, eng.in_a, lo, Ft(eng.inv_dx), ng, eng.body, eng.rc_bodies, eng.rb_c, eng.rb_M, eng.pg_sl,
             eng.pc_s, eng.pc_n, eng.pg_tw, eng.pc_m, eng.pg_S, eng.grid_dv, eng.pc_x])]
