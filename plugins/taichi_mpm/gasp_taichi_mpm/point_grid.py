@@ -111,19 +111,8 @@ class PointGrid(RollGrid):
                 if sb >= 0 and self.pg_patch > 0.0 and best < skin + 2.0 * self.pg_patch * ti.cast(self.dx[None],
                                                                                                  ti.f64):
                     # the point as its patch of the soft body's surface (warp_mpm's point_grid.py)
-                    dw = [fx - 1.5, -2.0 * (fx - 1.0), fx - 0.5]
-                    gm = ti.Vector.zero(ti.f64, 3)
-                    for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
-                        m = ti.cast(self.pc_m[f, base + ti.Vector([i, j, k])], ti.f64)
-                        gm += m * ti.cast(ti.Vector([dw[i][0] * w[j][1] * w[k][2], w[i][0] * dw[j][1] * w[k][2],
-                                                     w[i][0] * w[j][1] * dw[k][2]]), ti.f64)
-                    if gm.norm() > 0.0:
-                        mn = -gm.normalized()
-                        t1 = mn.cross(ti.Vector([1.0, 0.0, 0.0], ti.f64))
-                        if ti.abs(mn[0]) > 0.9:
-                            t1 = mn.cross(ti.Vector([0.0, 1.0, 0.0], ti.f64))
-                        t1 = t1.normalized()
-                        t2 = mn.cross(t1)
+                    has, t1, t2 = self.rg_frame(base, fx, w, f)
+                    if has != 0:
                         rb = self.rc_bodies[sb]
                         R = self.rb_R[rb]
                         h = self.pg_patch * ti.cast(self.dx[None], ti.f64) * 0.5

@@ -29,6 +29,31 @@ class RollGrid:
         self.rg_pmul = 1 if roll.PAIRS else 0   # round 71: the broken variant PAIRS 0 (every slot's patch one)
 
     @ti.func
+    def rg_frame(self, base, fx, w, f):
+        """A soft point's patch frame (round 67's, shared by ``pg_mark`` and the exact shapes): its field ``f``'s outward
+        normal ``-grad m`` from the node masses ``pc_m`` over its stencil (``base``, ``fx``, weights ``w``), and two
+        unit tangents ``t1, t2`` across it; ``(has, t1, t2)``, ``has`` 0 where the mass has no gradient (the
+        tangents then unused)."""
+        dw = [fx - 1.5, -2.0 * (fx - 1.0), fx - 0.5]
+        gm = ti.Vector.zero(ti.f64, 3)
+        for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
+            m = ti.cast(self.pc_m[f, base + ti.Vector([i, j, k])], ti.f64)
+            gm += m * ti.cast(ti.Vector([dw[i][0] * w[j][1] * w[k][2], w[i][0] * dw[j][1] * w[k][2],
+                                         w[i][0] * w[j][1] * dw[k][2]]), ti.f64)
+        has = 0
+        t1 = ti.Vector([1.0, 0.0, 0.0], ti.f64)
+        t2 = ti.Vector([0.0, 1.0, 0.0], ti.f64)
+        if gm.norm() > 0.0:
+            has = 1
+            mn = -gm.normalized()
+            t1 = mn.cross(ti.Vector([1.0, 0.0, 0.0], ti.f64))
+            if ti.abs(mn[0]) > 0.9:
+                t1 = mn.cross(ti.Vector([0.0, 1.0, 0.0], ti.f64))
+            t1 = t1.normalized()
+            t2 = mn.cross(t1)
+        return has, t1, t2
+
+    @ti.func
     def rg_sphere(self, xp, base, fx, w, f, skin, best, sb, nb, dlt):
         """``pg_mark``'s read of the round bodies that are spheres (``pg_sph``): the soft point at ``xp`` as its
         patch (its field ``f``'s outward normal from the node masses ``pc_m``), the least distance over it exactly
@@ -39,20 +64,9 @@ class RollGrid:
             c = self.rb_c[self.rc_bodies[s]]
             if self.rc_pt[s] != 0 and self.pg_sph[s] > 0.0 and (xp - c).norm() < self.pg_sph[s] + skin + \
                     6.0 * pm:
-                dw = [fx - 1.5, -2.0 * (fx - 1.0), fx - 0.5]
-                gm = ti.Vector.zero(ti.f64, 3)
-                for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
-                    m = ti.cast(self.pc_m[f, base + ti.Vector([i, j, k])], ti.f64)
-                    gm += m * ti.cast(ti.Vector([dw[i][0] * w[j][1] * w[k][2], w[i][0] * dw[j][1] * w[k][2],
-                                                 w[i][0] * w[j][1] * dw[k][2]]), ti.f64)
                 q = ti.Vector.zero(ti.f64, 3)
-                if gm.norm() > 0.0 and pm > 0.0:
-                    mn = -gm.normalized()
-                    t1 = mn.cross(ti.Vector([1.0, 0.0, 0.0], ti.f64))
-                    if ti.abs(mn[0]) > 0.9:
-                        t1 = mn.cross(ti.Vector([0.0, 1.0, 0.0], ti.f64))
-                    t1 = t1.normalized()
-                    t2 = mn.cross(t1)
+                has, t1, t2 = self.rg_frame(base, fx, w, f)
+                if has != 0 and pm > 0.0:
                     q = ti.min(ti.max((c - xp).dot(t1), -pm), pm) * t1 + ti.min(ti.max((c - xp).dot(t2),
                                                                                        -pm), pm) * t2
                 rq = xp + q - c
@@ -82,21 +96,10 @@ class RollGrid:
                 if ti.static(self.rg_turn == 0):   # a broken variant: the axis turned the wrong way
                     Rb = Rb.transpose()
                 e = (Rb @ ti.Vector([self.pg_cyl[s, 2], self.pg_cyl[s, 3], self.pg_cyl[s, 4]])).normalized()
-                dw = [fx - 1.5, -2.0 * (fx - 1.0), fx - 0.5]
-                gm = ti.Vector.zero(ti.f64, 3)
-                for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
-                    m = ti.cast(self.pc_m[f, base + ti.Vector([i, j, k])], ti.f64)
-                    gm += m * ti.cast(ti.Vector([dw[i][0] * w[j][1] * w[k][2], w[i][0] * dw[j][1] * w[k][2],
-                                                 w[i][0] * w[j][1] * dw[k][2]]), ti.f64)
                 d = xp - c
                 q = ti.Vector.zero(ti.f64, 3)
-                if gm.norm() > 0.0 and pm > 0.0:
-                    mn = -gm.normalized()
-                    t1 = mn.cross(ti.Vector([1.0, 0.0, 0.0], ti.f64))
-                    if ti.abs(mn[0]) > 0.9:
-                        t1 = mn.cross(ti.Vector([0.0, 1.0, 0.0], ti.f64))
-                    t1 = t1.normalized()
-                    t2 = mn.cross(t1)
+                has, t1, t2 = self.rg_frame(base, fx, w, f)
+                if has != 0 and pm > 0.0:
                     a1, a2, b = t1 - t1.dot(e) * e, t2 - t2.dot(e) * e, d - d.dot(e) * e
                     u, v = ti.cast(0.0, ti.f64), ti.cast(0.0, ti.f64)
                     for _ in range(self.rg_sweeps):
