@@ -29,7 +29,7 @@ from .collider_pair import NA
 from .fields import build_field_reads
 from .precision import MODULE_OPTIONS, build_types
 from .rigid_pairs import mat33d, vec3d
-from .roll_shape import cyl_near, cyl_rot, cyl_take
+from .roll_shape import cyl_near, cyl_rot, cyl_take, patch_tangents
 from .sdf_at import build_nearest, build_sdf_at
 from .stencil import build_gather, build_stencil, build_stencil_at
 
@@ -100,11 +100,7 @@ def build_point_grid(Ft):
         """(distance, normal, offset): the point (at ``xr`` from the body's centre) as its patch of the soft body's
         surface (half-size ``patch``, normal ``m``): the body's least distance over it (5 x 5 reads), so a lattice
         of points reads as a flat face; ``best``, ``nb`` and no offset where the point's own is least."""
-        t1 = wp.cross(m, vec3d(wp.float64(1.0), wp.float64(0.0), wp.float64(0.0)))
-        if wp.abs(m[0]) > wp.float64(0.9):
-            t1 = wp.cross(m, vec3d(wp.float64(0.0), wp.float64(1.0), wp.float64(0.0)))
-        t1 = wp.normalize(t1)
-        t2 = wp.cross(m, t1)
+        t1, t2 = patch_tangents(m)
         dlt = vec3d(wp.float64(0.0))
         for a in range(5):
             for c in range(5):
@@ -188,11 +184,7 @@ def build_point_grid(Ft):
                     m = soft_normal(pc_m, off, idx0, fx, n_grid)
                     q = vec3d(wp.float64(0.0))
                     if wp.length(m) > wp.float64(0.0) and patch > wp.float64(0.0):
-                        t1 = wp.cross(m, vec3d(wp.float64(1.0), wp.float64(0.0), wp.float64(0.0)))
-                        if wp.abs(m[0]) > wp.float64(0.9):
-                            t1 = wp.cross(m, vec3d(wp.float64(0.0), wp.float64(1.0), wp.float64(0.0)))
-                        t1 = wp.normalize(t1)
-                        t2 = wp.cross(m, t1)
+                        t1, t2 = patch_tangents(m)
                         q = wp.clamp(wp.dot(c - xp, t1), -patch, patch) * t1 + wp.clamp(wp.dot(c - xp, t2), -patch,
                                                                                             patch) * t2
                     rq = xp + q - c

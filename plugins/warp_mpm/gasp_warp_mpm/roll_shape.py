@@ -13,6 +13,17 @@ NC = wp.constant(5)
 
 
 @wp.func
+def patch_tangents(m: vec3d):
+    """``(t1, t2)``: two unit tangents across a soft point's patch of outward normal ``m`` (unit, nonzero): the patch
+    frame of ``point_grid``'s lattice, sphere and cylinder reads (round 67's)."""
+    t1 = wp.cross(m, vec3d(wp.float64(1.0), wp.float64(0.0), wp.float64(0.0)))
+    if wp.abs(m[0]) > wp.float64(0.9):
+        t1 = wp.cross(m, vec3d(wp.float64(0.0), wp.float64(1.0), wp.float64(0.0)))
+    t1 = wp.normalize(t1)
+    return t1, wp.cross(m, t1)
+
+
+@wp.func
 def cyl_clamp(a: wp.float64, lo: wp.float64, hi: wp.float64):
     return wp.min(wp.max(a, lo), hi)
 
@@ -31,11 +42,7 @@ def cyl_patch(xp: vec3d, m: vec3d, patch: wp.float64, c: vec3d, rot: mat33d, cyl
     d = xp - c
     q = vec3d(wp.float64(0.0))
     if wp.length(m) > wp.float64(0.0) and patch > wp.float64(0.0):
-        t1 = wp.cross(m, vec3d(wp.float64(1.0), wp.float64(0.0), wp.float64(0.0)))
-        if wp.abs(m[0]) > wp.float64(0.9):
-            t1 = wp.cross(m, vec3d(wp.float64(0.0), wp.float64(1.0), wp.float64(0.0)))
-        t1 = wp.normalize(t1)
-        t2 = wp.cross(m, t1)
+        t1, t2 = patch_tangents(m)
         a1 = t1 - wp.dot(t1, e) * e
         a2 = t2 - wp.dot(t2, e) * e
         b = d - wp.dot(d, e) * e
