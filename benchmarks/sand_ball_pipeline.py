@@ -12,9 +12,14 @@ the last frame (the definitions of ``gasp_core.testing.sand_ball.pair_figures``,
 the ball's side steeper than 50 degrees (share within 1 dx of it), the pile against the ball over the free pile's
 height, the deepest sand Gaussian inside the ball's sphere about its Gaussians' centroid (dx; negative: a gap), the
 ball's turn (Kabsch, degrees); and whether the run reached its last frame.
+``normal_depth_dx`` (round 73, issue 67's must-show as worded): the deepest sand Gaussian below the ball's surface
+along the ball's Gaussians' normals at the last frame, in dx (:func:`normal_depth`; positive: inside). ``--radius``
+sets the ball's radius and ``--one-field`` runs the pair with ``contact_fields = false``. Lines since round 73 carry a
+``date``.
 
     python benchmarks/sand_ball_pipeline.py --engines taichi_mpm,warp_mpm --spacing 0.01,0.005 --frames 60
     python benchmarks/sand_ball_pipeline.py --engines warp_mpm --n-grid 32,48,64   # against resolution
+    python benchmarks/sand_ball_pipeline.py --engines warp_mpm --spacing 0.01 --n-grid 36,48 --radius 0.035
 
 Writes ``benchmarks/results/sand_ball_pipeline.json`` (or ``--out``), a JSON line per run (its ``n_grid`` in it);
 ``--keep DIR`` keeps the runs there.
