@@ -127,6 +127,40 @@ def pair_figures(x0: np.ndarray, x1: np.ndarray, body: np.ndarray, free_x1: np.n
             "ball_travel_mm": 1e3 * float(np.linalg.norm((c - c0)[:2]))}
 
 
+def gaussian_normals(rotmats: np.ndarray, scales: np.ndarray, means: np.ndarray) -> np.ndarray:
+    """Outward unit normals (n, 3) of flat Gaussians: each one's thin axis (the column of ``rotmats`` (n, 3, 3), world
+    frame, with the smallest of ``scales`` (n, 3), m; the pipeline's ball writes it as the first, r1), turned to point
+    away from the centroid of ``means`` (n, 3), m. The surface's normal as the Gaussians carry it, not the sphere's."""
+    k = np.argmin(scales, axis=1)
+    n = rotmats[np.arange(len(k)), :, k]
+    n = n / np.linalg.norm(n, axis=1, keepdims=True)
+    out = np.einsum("ij,ij->i", n, means - means.mean(0))
+    return np.where((out < 0.0)[:, None], -n, n)
+
+
+def normal_depth_dx(sand: np.ndarray, surf: np.ndarray, normals: np.ndarray, dx: float, band: float = 2.0) -> float:
+    """Issue 67's must-show figure: the deepest sand Gaussian below the ball's surface along its Gaussians' normals.
+
+    ``sand`` (m, 3) the sand Gaussians' centres, ``surf`` (n, 3) the ball's surface Gaussians' centres and ``normals``
+    (n, 3) their outward unit normals (:func:`gaussian_normals`), all in metres at the same frame; ``dx`` the run's
+    cell (m). A sand Gaussian ``p`` counts when it lies within ``band`` dx of the ball's surface (``|p - c| < r + band
+    dx``, ``c`` the ball's centroid, ``r`` its Gaussians' mean distance from it: any sand inside the ball counts); its
+    depth is ``(s - p) . n`` for the ball Gaussian ``s`` nearest to it. Returns the largest depth over those, in dx
+    (positive: below the surface; negative: the nearest sand stands that far off), ``-inf`` when no sand is within the
+    band. The same idea on points: ``gasp_core.testing.snow.surface_depth_dx``. Raises ``ValueError`` on an empty
+    ``surf``."""
+    if len(surf) == 0:
+        raise ValueError("no ball Gaussians")
+    c = surf.mean(0)
+    r = float(np.linalg.norm(surf - c, axis=1).mean())
+    p = sand[np.linalg.norm(sand - c, axis=1) < r + band * dx]
+    if not len(p):
+        return -np.inf
+    from scipy.spatial import cKDTree
+    _, k = cKDTree(surf).query(p)
+    return float(np.einsum("ij,ij->i", surf[k] - p, normals[k]).max() / dx)
+
+
 #: The sliding block (:func:`slide_setup`): a 6 x 6 x 3 cm block of the sand on a 40 x 16 x 3 cm jelly slab (E 2e5 Pa,
 #: rho 1000; held on the ground, friction 0.5, by its weight: it carries 2.6 times the block's friction).
 SLAB = Material("jelly", E=2e5, nu=0.3, rho=1000.0)
