@@ -150,7 +150,8 @@ def rest(engine: str, n_grid: int = 32, R: float = 0.03, L: float = 0.06, T: flo
     r6 = rows[5]
     return {"support": 1.0 + (half[-1]["pz"] - half[0]["pz"]) / (M * G * dT),
             "a0": 2.0 * float(r6["c"][0] - c0[0]) / r6["t"] ** 2,
-            "x_mid_mm": 1e3 * float(0.5 * (xs.max() + xs.min()) - c0[0]), "x_amp_mm": 1e3 * float(0.5 * (xs.max() - xs.min())),
+            "x_mid_mm": 1e3 * float(0.5 * (xs.max() + xs.min()) - c0[0]),
+            "x_amp_mm": 1e3 * float(0.5 * (xs.max() - xs.min())),
             "depth": max(r["depth"] for r in half) / dx, "drop": float(c0[2] - rows[-1]["c"][2]) / dx,
             "z_mm": 1e3 * float(max(abs(r["c"][2] - last[0]["c"][2]) for r in last)),
             "sway_mm": 1e3 * float(max(abs(r["c"][0] - c0[0]) for r in rows))}
