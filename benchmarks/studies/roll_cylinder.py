@@ -31,6 +31,11 @@ the cylinder rho 1000, radius ``R``, length ``L``; frames of 1/240 s):
     python benchmarks/studies/roll_cylinder.py --engine warp_mpm taichi_mpm --scene flat slope rest \\
         --n-grid 32 48 --body 3,6 4.5,6 3,9
 
+Round 73 (``docs/rigid.md`` "Round 73"): ``--body R,0`` is the ball of radius ``R`` in the same scenes (its lattice's
+``I``, its exact sphere for ``depth``); ``--rest-x0`` the body's start along x (mm) in ``rest``, which also gives
+``a0`` (its mean acceleration along x over the first 0.05 s), ``x_mid_mm`` and ``x_amp_mm`` (the middle and half-range
+of its x over the second half, from the start).
+
 ``--set NAME=VALUE`` sets a constant of ``gasp_core.mpm.roll_contact`` (else ``rigid_sdf``): the broken variants
 ``CYLINDER=0`` (round 71's fallback, the band), ``CYL_AXIS=1`` (a wrong axis), ``CYL_TURN=0`` (the axis turned the
 wrong way), ``SURFACE_ARM=0`` (the arm at the patch); ``--roll 0`` the option off.
@@ -49,13 +54,16 @@ from roll_neighbours import G, _engine, _spin, rolling, slab_setup  # noqa: E402
 
 
 def _shape(L: float) -> str:
-    return f"cyl{100.0 * L:g}"
+    """The body's ``roll_neighbours.body_points`` shape: a cylinder ``L`` long; round 73: ``L`` 0 a ball."""
+    return "ball" if L == 0.0 else f"cyl{100.0 * L:g}"
 
 
 def k_ratio(n_grid: int, R: float, L: float) -> float:
-    """``I / M R^2`` about the cylinder's axis of its lattice (1/2 for a solid cylinder)."""
-    from roll_neighbours import cylinder_points
-    x, _ = cylinder_points(np.zeros(3), R, L, 0.48 / n_grid / 2)
+    """``I / M R^2`` about the cylinder's axis (y) of its lattice (1/2 for a solid cylinder; round 73: ``L`` 0 the
+    ball's, 2/5 for a solid ball)."""
+    from roll_neighbours import body_points
+    x, _ = body_points(_shape(L), np.zeros(3), R, 0.48 / n_grid / 2)
+    x = x - x.mean(0)
     return float(np.mean(x[:, 0] ** 2 + x[:, 2] ** 2)) / R ** 2
 
 
@@ -94,8 +102,10 @@ def slope(engine: str, n_grid: int = 32, R: float = 0.03, L: float = 0.06, mu: f
 
 def cyl_distance(x: np.ndarray, c: np.ndarray, e: np.ndarray, R: float, h: float) -> np.ndarray:
     """The signed distance (m, negative inside) of points ``x`` (N, 3) to the solid capped cylinder (centre ``c``, unit
-    axis ``e``, radius ``R``, half-length ``h``)."""
+    axis ``e``, radius ``R``, half-length ``h``; round 73: ``h`` 0 the ball of radius ``R``)."""
     y = x - c
+    if h == 0.0:   # round 73: a ball (``L`` 0)
+        return np.linalg.norm(y, axis=1) - R
     z = y @ e
     dr = np.linalg.norm(y - np.outer(z, e), axis=1) - R
     dz = np.abs(z) - h
@@ -109,9 +119,13 @@ def _kabsch(X0: np.ndarray, X: np.ndarray) -> np.ndarray:
     return (U @ np.diag([1.0, 1.0, d]) @ Vt).T
 
 
-def rest(engine: str, n_grid: int = 32, R: float = 0.03, L: float = 0.06, T: float = 0.6, roll: bool = True) -> dict:
-    """The ``rest`` scene's figures (module notes)."""
-    s = slab_setup(n_grid, [(_shape(L), R, (0.0, 0.0), 0.0, 0.0)], frame_dt=1.0 / 120.0, ground_mu=1.0)
+def rest(engine: str, n_grid: int = 32, R: float = 0.03, L: float = 0.06, T: float = 0.6, roll: bool = True,
+         x0: float = 0.0) -> dict:
+    """The ``rest`` scene's figures (module notes); round 73: ``x0`` (m) the body's start along x (0: the slab's
+    points symmetric about it), and ``a0`` (m/s^2) its mean acceleration along x over the first 0.05 s (``2 (x - x0) /
+    t^2``), ``x_mid_mm`` the middle of its sway over the second half from ``x0`` (where it rocks about), ``x_amp_mm``
+    its half-range there."""
+    s = slab_setup(n_grid, [(_shape(L), R, (x0, 0.0), 0.0, 0.0)], frame_dt=1.0 / 120.0, ground_mu=1.0)
     body = np.asarray(s.body_id)
     m = np.broadcast_to(np.asarray(s.p_vol, float), body.shape) * 1000.0
     q, M = body == 0, float(m[body == 0].sum())
@@ -132,7 +146,12 @@ def rest(engine: str, n_grid: int = 32, R: float = 0.03, L: float = 0.06, T: flo
     half = [r for r in rows if r["t"] > T / 2 - 1e-9]
     last = [r for r in rows if r["t"] > T - 0.3 - 1e-9]
     dT = half[-1]["t"] - half[0]["t"]
+    xs = np.array([r["c"][0] for r in half])
+    r6 = rows[5]
     return {"support": 1.0 + (half[-1]["pz"] - half[0]["pz"]) / (M * G * dT),
+            "a0": 2.0 * float(r6["c"][0] - c0[0]) / r6["t"] ** 2,
+            "x_mid_mm": 1e3 * float(0.5 * (xs.max() + xs.min()) - c0[0]),
+            "x_amp_mm": 1e3 * float(0.5 * (xs.max() - xs.min())),
             "depth": max(r["depth"] for r in half) / dx, "drop": float(c0[2] - rows[-1]["c"][2]) / dx,
             "z_mm": 1e3 * float(max(abs(r["c"][2] - last[0]["c"][2]) for r in last)),
             "sway_mm": 1e3 * float(max(abs(r["c"][0] - c0[0]) for r in rows))}
@@ -170,10 +189,11 @@ def main() -> None:
     ap.add_argument("--engine", nargs="+", default=["warp_mpm"])
     ap.add_argument("--scene", nargs="+", default=["flat", "slope", "rest"])
     ap.add_argument("--n-grid", nargs="+", type=int, default=[32])
-    ap.add_argument("--body", nargs="+", default=["3,6"], help="R,L in cm")
+    ap.add_argument("--body", nargs="+", default=["3,6"], help="R,L in cm (round 73: L 0, a ball of radius R)")
     ap.add_argument("--mu", nargs="+", type=float, default=[0.5, 0.05])
     ap.add_argument("--theta", type=float, default=20.0)
     ap.add_argument("--rest-T", type=float, default=0.6)
+    ap.add_argument("--rest-x0", nargs="+", type=float, default=[0.0], help="rest: the body's start along x (mm)")
     ap.add_argument("--roll", type=int, default=1)
     ap.add_argument("--set", nargs="*", default=[])
     a = ap.parse_args()
@@ -186,7 +206,7 @@ def main() -> None:
         for ng in a.n_grid:
             for b in a.body:
                 R, L = (float(u) / 100.0 for u in b.split(","))
-                tag = f"{eng} n_grid {ng} R {100 * R:g} cm L {100 * L:g} cm"
+                tag = f"{eng} n_grid {ng} R {100 * R:g} cm " + (f"L {100 * L:g} cm" if L else "ball")
                 c_rr = 0.0
                 if "flat" in a.scene:
                     r = flat(eng, ng, R, L, roll=bool(a.roll))
@@ -201,8 +221,10 @@ def main() -> None:
                     r = yaw(eng, ng, R, L, roll=bool(a.roll))
                     print(tag, "yaw", {k: round(v, 4) for k, v in r.items()}, flush=True)
                 if "rest" in a.scene:
-                    r = rest(eng, ng, R, L, a.rest_T, roll=bool(a.roll))
-                    print(tag, "rest", {k: round(v, 4) for k, v in r.items()}, flush=True)
+                    for x0 in a.rest_x0:
+                        r = rest(eng, ng, R, L, a.rest_T, roll=bool(a.roll), x0=x0 / 1e3)
+                        print(tag, "rest" + (f" x0 {x0:g} mm" if x0 else ""), {k: round(v, 4) for k, v in r.items()},
+                              flush=True)
 
 
 if __name__ == "__main__":
