@@ -98,7 +98,7 @@ PLATE = 0.6
 #: How far (cells) the block's front (its surface: its outer points plus half their spacing, DX / 4, as the plate's
 #: ``near``) may end from the plate's near face: into it at most TOL; short of it at most GAP. Round 41's ``PIC_AT_B``
 #: (docs/contact.md "Round 41: the sand's affine momentum at the face") ended the outer points 0.168 cells short,
-#: their surface 0.082 cells inside the plate. Round 75's touch at the surface (``gasp_core.mpm.fields.FLOW_REACH``,
+#: their surface 0.082 cells inside the plate. Round 75's touch at the surface (``gasp_core.mpm.flow_reach.FLOW_REACH``,
 #: docs/contact.md "Round 75"): the surface -0.239 cells short (points -0.489), both engines; the rule before
 #: (``FLOW_REACH`` off) +0.086 into the plate (the rigid hold keeps it under TOL: the catch of round 75's rule is
 #: ``tests/test_sand_ball_normals.py``'s).

@@ -15,7 +15,7 @@ ball; negative: the nearest sand stands off.
   surface, so an engine holding the sand a cell off fails). Round 73 measured the misses (warp_mpm +0.376 at n_grid
   32, +0.395 at 36, +0.552 / +0.375 with a 35 mm ball; taichi_mpm +0.375 / +0.418): the sand's fill was held a
   quarter cell off the ball while its Gaussians, half a fill spacing further out, went in. Round 75's touch at the
-  flowing body's surface (``gasp_core.mpm.fields.FLOW_REACH``, docs/contact.md "Round 75") meets every row
+  flowing body's surface (``gasp_core.mpm.flow_reach.FLOW_REACH``, docs/contact.md "Round 75") meets every row
   (:data:`MISSES` empty). The catch: the rule before (``FLOW_REACH`` off) fails the issue's scene on both engines
   (:func:`test_the_check_fails_with_the_touch_at_the_points`, run in process so the switch reaches the engine);
   the check on placed sand shows both sides failing (:func:`test_the_check_fails_on_sand_placed_past_either_limit`).
@@ -131,11 +131,11 @@ def test_the_issues_scene(engine, tmp_path):
 @pytest.mark.parametrize("engine", ["warp_mpm", "taichi_mpm"])
 def test_the_check_fails_with_the_touch_at_the_points(engine, tmp_path, monkeypatch):
     """The catch of round 75's rule: the issue's scene with the flowing body's touch at its points' centres
-    (``gasp_core.mpm.fields.FLOW_REACH`` off, the rule of rounds 37-74) fails the depth check (round 73: +0.395 dx on
+    (``gasp_core.mpm.flow_reach.FLOW_REACH`` off, the rule of rounds 37-74) fails the depth check (round 73: +0.395 dx on
     warp_mpm, +0.418 on taichi_mpm). ``gasp simulate`` in this process (``gasp_core.cli.main.main``), so the switch
     reaches the engine."""
     from gasp_core.cli.main import main
-    from gasp_core.mpm import fields as F
+    from gasp_core.mpm import flow_reach as F
     if engine not in engines() or engines()[engine].unavailable_reason() is not None:
         pytest.skip(f"{engine} not available")
     monkeypatch.setattr(F, "FLOW_REACH", False)

@@ -72,15 +72,7 @@ SOLID_FRICTION = 0.5
 #: pair's whole Coulomb correction, its reaction going to B at the node behind it. False: :data:`TOUCH_FRACTION` and the
 #: node's share alone (the rule before; the catch of ``tests/test_contact_fields.py``).
 FLOW_TOUCH = True   # FLOW_TOUCH_DELTA 0.25: fields_reference.py, with flow_touch_level
-#: The flowing body's touch at its surface (round 75, ``docs/contact.md`` "Round 75: the flowing body's touch at its
-#: surface"): a point of a flowing body marks where it lies within ``FLOW_TOUCH_DELTA`` cells of B's surface PLUS half
-#: its body's point spacing (:func:`flow_levels`), so the body's surface, not its points' centres, stops
-#: ``FLOW_TOUCH_DELTA`` off B's (the rule :mod:`gasp_core.mpm.gap_touch` gives two solids). False: every flowing point
-#: at ``FLOW_TOUCH_DELTA`` (the rule of rounds 37-74, the catch): the fill held 0.04 dx outside a ball's Gaussians left
-#: the sand's own Gaussians, half a fill spacing further out, 0.38-0.55 dx inside it (issue 67's must-show).
-FLOW_REACH = True
-#: The flowing body's reach is at most this many cells (:func:`flow_levels`): a point's stencil reaches 1.5.
-FLOW_REACH_MAX = 1.0
+#: Its level per body, the points' reach added (round 75): :mod:`gasp_core.mpm.flow_reach`.
 #: The ground's mirror in the normal (round 41, ``docs/contact.md`` "Round 41: the thin support's rub"): B's mass at
 #: a node at or below a ground's top node layer is seen with its mirror image in that layer (:func:`ground_mirror`),
 #: the ground beneath B being B's support, not a surface of B. False: the nodes' own mass (the rule before, the catch
@@ -387,37 +379,6 @@ def flow_touch(setup) -> bool:
     """Whether a setup's two-field contact takes the flowing body's touch (:data:`FLOW_TOUCH`): a ``"mixed"`` scene
     (field A its flowing bodies) that runs two fields."""
     return bool(FLOW_TOUCH) and contact_model(setup) == "mixed" and uses_fields(setup)
-
-
-def flow_spacing(setup) -> np.ndarray:
-    """Per body (shape (n_materials,), metres) its material points' spacing: the 90th percentile of its points'
-    ``p_vol ** (1/3)`` over those with volume (a fill lattice's spacing where most points are whole cells; a body's
-    massless surface points, a flowing body's Gaussians, and its cut boundary cells left out, one outsized point
-    ignored); 0 for a body without volume."""
-    n_mat = getattr(setup, "n_material", None)
-    n = len(setup.x) if n_mat is None else int(n_mat)
-    vol = np.broadcast_to(np.asarray(setup.p_vol, float), (len(setup.x),))[:n]
-    body = np.asarray(setup.body_id)[:n]
-    out = np.zeros(len(setup.materials))
-    for b in range(len(setup.materials)):
-        v = vol[(body == b) & (vol > 0)]
-        if len(v):
-            out[b] = float(np.percentile(v, 90)) ** (1.0 / 3.0)
-    return out
-
-
-def flow_levels(setup) -> np.ndarray:
-    """The flowing body's touch level per body (shape (n_materials,), float64, a volume fraction of a cell, what the
-    engines' ``flow_mark`` compares field B's gathered volume fraction at a point of field A with): with
-    :data:`FLOW_REACH` :func:`flow_touch_level` at ``FLOW_TOUCH_DELTA + 0.5 s_b / dx`` cells (``s_b``
-    :func:`flow_spacing`, at most :data:`FLOW_REACH_MAX` cells; the point's own surface ``FLOW_TOUCH_DELTA`` off B's,
-    the reach of :func:`gasp_core.mpm.gap_touch.body_delta`), else ``flow_touch_level()`` for every body (the rule
-    before). Bodies of field B get the same formula; the engines read A's only."""
-    if not FLOW_REACH:
-        return np.full(len(setup.materials), flow_touch_level())
-    reach = FLOW_TOUCH_DELTA + 0.5 * flow_spacing(setup) / float(setup.dx)
-    reach = np.round(np.clip(reach, FLOW_TOUCH_DELTA, FLOW_REACH_MAX), 3)
-    return np.array([flow_touch_level(float(r)) for r in reach], np.float64)
 
 
 def pic_at_b(setup) -> bool:

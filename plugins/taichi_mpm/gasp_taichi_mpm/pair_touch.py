@@ -3,7 +3,7 @@ docs/contact.md "Round 37: the flowing body's touch"), warp_mpm's ``gasp_warp_mp
 
 In a ``"mixed"`` scene, after P2G and before :meth:`gasp_taichi_mpm.fields.Fields.field_contact`: :meth:`mark_flow`
 (a parallel loop over the points, atomic max) marks the 27 stencil nodes of every point of field A (the flowing
-bodies) where field B's gathered volume fraction reaches its body's level (``gasp_core.mpm.fields.flow_levels``,
+bodies) where field B's gathered volume fraction reaches its body's level (``gasp_core.mpm.flow_reach.flow_levels``,
 round 75: the point's surface, half its body's point spacing out, lies within ``FLOW_TOUCH_DELTA`` cells of B's
 surface); ``field_contact`` takes those nodes as where the bodies touch, and at a
 touching node on A's side of the surface (``m_A > m_B``) sets A against B's mass at that node and the node behind
@@ -24,7 +24,7 @@ it reads.
 import taichi as ti
 
 from gasp_core.mpm import fields as core_fields, gap_touch as G
-from gasp_core.mpm.fields import flow_levels
+from gasp_core.mpm.flow_reach import flow_levels
 
 
 @ti.data_oriented
@@ -36,7 +36,7 @@ class PairTouch:
         node, the marks) and ``grid_push`` (B's momentum from the node in front, kg m/s); one entry each when off.
         ``gap_touch_on`` (round 60: ``gap``, the touch by geometry's level per body, ``gasp_core.mpm.gap_touch``,
         kept in ``gap_level``; None: off), whose marks take ``grid_ft`` too. ``flow_level`` (round 75): the flowing
-        body's touch level per body (``gasp_core.mpm.fields.flow_levels`` of ``setup``, the scene)."""
+        body's touch level per body (``gasp_core.mpm.flow_reach.flow_levels`` of ``setup``, the scene)."""
         self.flow_touch_on = bool(self.fields and flow)
         self.gap_touch_on = bool(self.fields and gap is not None)
         self.gap_curve = bool(self.gap_touch_on and G.CURVATURE)   # round 61: gap = the table, then the reaches

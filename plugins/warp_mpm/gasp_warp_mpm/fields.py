@@ -16,7 +16,8 @@ import warp as wp
 from gasp_core.mpm.contact import flowing_bodies
 from gasp_core.mpm import fields as core_fields, gap_touch as G
 from gasp_core.mpm.fields import (MIN_FRACTION, MIN_GRADIENT, body_pair, field_bodies, field_friction, flow_touch,
-                                  flow_levels, gap_levels, node_friction, touch_fraction, a_node_friction)
+                                  gap_levels, node_friction, touch_fraction, a_node_friction)
+from gasp_core.mpm.flow_reach import flow_levels
 from gasp_core.mpm.shared_fields import shared_field_warning
 
 from . import ENGINE
@@ -295,7 +296,7 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     # round 42: a ground's top layer free in untouched columns, the friction on B's own velocity (grid.py)
     eng.field_rule = core_fields.field_rule() if eng.fields and contact == "mixed" else 0
     eng.flow_touch_on = bool(eng.fields and flow_touch(view))   # the flowing body's touch (pair_touch.py)
-    # round 75: its level per body, the point's surface at B's (gasp_core.mpm.fields.flow_levels)
+    # round 75: its level per body, the point's surface at B's (gasp_core.mpm.flow_reach.flow_levels)
     eng.flow_level = wp.array(flow_levels(view) if eng.flow_touch_on else np.zeros(1), dtype=Ft, device=d)
     levels = gap_levels(view, bool(core_fields.GAP_TOUCH) and body_pair(view)) if eng.fields else None   # round 60
     eng.gap_touch_on = levels is not None
