@@ -5,8 +5,8 @@ at its surface").
 volume fraction at or above ``flow_touch_level``: before round 75 one level for every point, ``FLOW_TOUCH_DELTA`` cells
 off B's surface. A flowing body's points are its fill, and its Gaussians lie half a point spacing further out, so the
 sand's own surface ended 0.38-0.55 dx inside a jelly ball. :func:`flow_levels` gives each body its own level, its
-points' reach (half their spacing, :func:`flow_spacing`) added to ``FLOW_TOUCH_DELTA``; the engines' ``flow_mark``
-kernels (``gasp_warp_mpm.pair_touch``, ``gasp_taichi_mpm.pair_touch``) read it per body.
+points' reach (half their spacing, :func:`flow_spacing`) added to ``FLOW_TOUCH_DELTA``; each MPM plugin's touch
+kernel reads it per body.
 """
 from __future__ import annotations
 
