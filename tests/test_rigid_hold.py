@@ -95,10 +95,13 @@ def test_scenes_without_a_holding_body_build_no_tables():
 N_GRID = 32
 DX = 1.0 / N_GRID
 PLATE = 0.6
-#: How far (cells) the block's front may end from the plate's near face: into it at most TOL; short of it at most
-#: GAP, the band in which round 37's touch rests sand points over a face (``tests/test_sand_on_rigid.py``'s
-#: ``REST_BAND``: 0.1-0.4). Round 41's ``PIC_AT_B`` (docs/contact.md "Round 41: the sand's affine momentum at the
-#: face") ends the front 0.168 cells short (before +0.005), both engines.
+#: How far (cells) the block's front (its surface: its outer points plus half their spacing, DX / 4, as the plate's
+#: ``near``) may end from the plate's near face: into it at most TOL; short of it at most GAP. Round 41's ``PIC_AT_B``
+#: (docs/contact.md "Round 41: the sand's affine momentum at the face") ended the outer points 0.168 cells short,
+#: their surface 0.082 cells inside the plate. Round 75's touch at the surface (``gasp_core.mpm.flow_reach.FLOW_REACH``,
+#: docs/contact.md "Round 75"): the surface -0.239 cells short (points -0.489), both engines; the rule before
+#: (``FLOW_REACH`` off) +0.086 into the plate (the rigid hold keeps it under TOL: the catch of round 75's rule is
+#: ``tests/test_sand_ball_normals.py``'s).
 TOL = 0.15
 GAP = 0.4
 
@@ -106,7 +109,8 @@ GAP = 0.4
 def thrown_at_plate(engine: str) -> tuple[float, int, float]:
     """A sand block thrown at 2 m/s along x, no gravity, at a free rigid plate one cell thick (rho 8000): its front
     over the plate's near face at the end (cells), its points beyond the plate's far face, and the momentum of the
-    sand and the plate together over the sand's at the start minus 1."""
+    sand and the plate together over the sand's at the start minus 1. The front is the block's surface (its outer
+    points plus half their spacing)."""
     xs, vs = box_points((0.40, 0.42, 0.42), (0.50, 0.58, 0.58), DX / 2)
     xp, vp = box_points((PLATE, 0.3, 0.3), (PLATE + DX, 0.7, 0.7), DX / 2)
     x = np.concatenate([xs, xp])
@@ -128,7 +132,8 @@ def thrown_at_plate(engine: str) -> tuple[float, int, float]:
     near = plate[:, 0].min() - DX / 4   # the fill's surface: half a spacing beyond its outer layer
     far = plate[:, 0].max() + DX / 4
     sand = x1[:len(xs)]
-    return float((sand[:, 0].max() - near) / DX), int((sand[:, 0] > far).sum()), float(m @ v1[:, 0] / p0 - 1.0)
+    front = (sand[:, 0].max() + DX / 4 - near) / DX   # the block's surface, half a spacing past its outer points
+    return float(front), int((sand[:, 0] > far).sum()), float(m @ v1[:, 0] / p0 - 1.0)
 
 
 def _switch_off(engine: str, monkeypatch) -> None:

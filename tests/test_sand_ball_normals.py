@@ -12,10 +12,13 @@ ball; negative: the nearest sand stands off.
 - Slow tier: the user's path (``benchmarks/sand_ball_pipeline.py``: flat Gaussians written to PLY, run through
   ``gasp simulate``, 60 frames, 10 mm spacing) over :data:`FAMILY` (engines, n_grid, the ball's radius). Two-sided:
   ``-REACH_TOL <= figure <= DEPTH_TOL`` (no sand more than 0.25 dx inside; the nearest sand within 1 dx of the
-  surface, so an engine holding the sand a cell off fails). Rows that miss are strict xfails with the measured
-  figure (:data:`MISSES`: warp_mpm passes at n_grid 48, +0.245, and 64, -0.377; it misses at 32 and 36 and with a
-  35 mm ball; taichi_mpm misses at 32 and 36; taichi_mpm at 48 and 64 not run). The engine itself shows the upper side failing; the check on placed sand
-  shows both sides failing (:func:`test_the_check_fails_on_sand_placed_past_either_limit`).
+  surface, so an engine holding the sand a cell off fails). Round 73 measured the misses (warp_mpm +0.376 at n_grid
+  32, +0.395 at 36, +0.552 / +0.375 with a 35 mm ball; taichi_mpm +0.375 / +0.418): the sand's fill was held a
+  quarter cell off the ball while its Gaussians, half a fill spacing further out, went in. Round 75's touch at the
+  flowing body's surface (``gasp_core.mpm.flow_reach.FLOW_REACH``, docs/contact.md "Round 75") meets every row
+  (:data:`MISSES` empty). The catch: the rule before (``FLOW_REACH`` off) fails the issue's scene on both engines
+  (:func:`test_the_check_fails_with_the_touch_at_the_points`, run in process so the switch reaches the engine);
+  the check on placed sand shows both sides failing (:func:`test_the_check_fails_on_sand_placed_past_either_limit`).
 - Not a catch: the same scene with ``contact_fields = false`` (one velocity field, the no-slip before issue 53) PASSES
   this check (warp_mpm n_grid 36: -0.349 dx, n_grid 48: -0.461: the sand stuck to the ball's face stands off it); it
   fails the pile and steep checks instead (pile 1.93 times the free pile's height, 5.1 % steep;
@@ -43,16 +46,9 @@ DEPTH_TOL = 0.25
 REACH_TOL = 1.0
 FRAMES, SPACING = 60, 0.01
 
-#: Measured round 73 (the figure, dx) for the rows that miss: a strict xfail with it as the reason. The deepest sand
-#: sits on the ball's face towards the column, 10-17 degrees below its equator (warp_mpm n_grid 36: 6.6 mm); the
-#: sphere's measure about the centroid reads the same within 0.02 dx (the ball keeps its shape, its Gaussians 48-50 mm
-#: from its centre), so it is the contact, not the reading.
-MISSES: dict[tuple[str, int, float], str] = {
-    ("warp_mpm", 32, 0.05): "sand 0.376 dx (7.4 mm) below the ball's surface along its normals (round 73)",
-    ("warp_mpm", 36, 0.035): "sand 0.552 dx (9.2 mm) below the 35 mm ball's surface along its normals (round 73)",
-    ("warp_mpm", 48, 0.035): "sand 0.375 dx (4.3 mm) below the 35 mm ball's surface along its normals (round 73)",
-    ("taichi_mpm", 32, 0.05): "sand 0.375 dx (7.4 mm) below the ball's surface along its normals (round 73)",
-}
+#: Rows that miss: a strict xfail with the measured figure as the reason. Round 73's four (warp_mpm n_grid 32, the
+#: 35 mm ball at 36 and 48, taichi_mpm 32: +0.376, +0.552, +0.375, +0.375 dx) met since round 75 (docs/contact.md).
+MISSES: dict[tuple[str, int, float], str] = {}
 
 
 def _row(engine: str, n_grid: int, r: float):
@@ -123,13 +119,32 @@ def test_no_sand_below_the_balls_surface_along_its_normals(engine, n_grid, r, tm
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="round 73: sand 0.395 dx (6.6 mm, warp_mpm) and 0.418 dx (7.0 mm, taichi_mpm) "
-                   "below the ball's surface along its normals at n_grid 36")
 @pytest.mark.parametrize("engine", ["warp_mpm", "taichi_mpm"])
 def test_the_issues_scene(engine, tmp_path):
-    """The must-show's scene at the issue's n_grid 36 (docs/must_shows.md names this test)."""
+    """The must-show's scene at the issue's n_grid 36 (docs/must_shows.md names this test). Round 73: +0.395 dx
+    (warp_mpm) and +0.418 (taichi_mpm); round 75: -0.010 and +0.022."""
     f = _pair(engine, 36, B.R, tmp_path)
     assert _fails(f) is None, (_fails(f), f)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("engine", ["warp_mpm", "taichi_mpm"])
+def test_the_check_fails_with_the_touch_at_the_points(engine, tmp_path, monkeypatch):
+    """The catch of round 75's rule: the issue's scene with the flowing body's touch at its points' centres
+    (``gasp_core.mpm.flow_reach.FLOW_REACH`` off, the rule of rounds 37-74) fails the depth check (round 73: +0.395 dx on
+    warp_mpm, +0.418 on taichi_mpm). ``gasp simulate`` in this process (``gasp_core.cli.main.main``), so the switch
+    reaches the engine."""
+    from gasp_core.cli.main import main
+    from gasp_core.mpm import flow_reach as F
+    if engine not in engines() or engines()[engine].unavailable_reason() is not None:
+        pytest.skip(f"{engine} not available")
+    monkeypatch.setattr(F, "FLOW_REACH", False)
+    path = B.scene(tmp_path, SPACING, engine, FRAMES, True, 36, B.R)
+    out = tmp_path / "out"
+    assert main(["simulate", str(path), "-o", str(out), "-q"]) == 0
+    f = B.normal_depth(out)
+    assert f["frames"] == FRAMES, f
+    assert _fails(f) is not None and f["normal_depth_dx"] > DEPTH_TOL, f
 
 
 def test_the_check_fails_on_sand_placed_past_either_limit():

@@ -72,6 +72,7 @@ SOLID_FRICTION = 0.5
 #: pair's whole Coulomb correction, its reaction going to B at the node behind it. False: :data:`TOUCH_FRACTION` and the
 #: node's share alone (the rule before; the catch of ``tests/test_contact_fields.py``).
 FLOW_TOUCH = True   # FLOW_TOUCH_DELTA 0.25: fields_reference.py, with flow_touch_level
+#: Its level per body, the points' reach added (round 75): :mod:`gasp_core.mpm.flow_reach`.
 #: The ground's mirror in the normal (round 41, ``docs/contact.md`` "Round 41: the thin support's rub"): B's mass at
 #: a node at or below a ground's top node layer is seen with its mirror image in that layer (:func:`ground_mirror`),
 #: the ground beneath B being B's support, not a surface of B. False: the nodes' own mass (the rule before, the catch

@@ -99,14 +99,23 @@ def rotation_deg(x0: np.ndarray, x1: np.ndarray) -> float:
     return float(np.degrees(np.arccos(np.clip((np.trace(rot) - 1.0) / 2.0, -1.0, 1.0))))
 
 
+def sand_reach(setup) -> float:
+    """Half the sand's point spacing (m): ``0.5 * median(p_vol) ** (1/3)`` over the bodies but the last (the ball)."""
+    body = np.asarray(setup.body_id)
+    vol = np.broadcast_to(np.asarray(setup.p_vol, float), body.shape)
+    return 0.5 * float(np.median(vol[body != body.max()])) ** (1.0 / 3.0)
+
+
 def _near_ball(xs: np.ndarray, c: np.ndarray, band: float) -> np.ndarray:
     r = np.linalg.norm(xs - c, axis=1)
     return (r <= R + band) & (xs[:, 2] <= c[2] + R)
 
 
-def pair_figures(x0: np.ndarray, x1: np.ndarray, body: np.ndarray, free_x1: np.ndarray) -> dict:
+def pair_figures(x0: np.ndarray, x1: np.ndarray, body: np.ndarray, free_x1: np.ndarray, reach: float = 0.0) -> dict:
     """The figures of the module's docstring from the start ``x0`` and end ``x1`` (setup order, the ball the last
-    body), and the free pile's end ``free_x1`` (its sand in the same order as ``x1``'s sand)."""
+    body), and the free pile's end ``free_x1`` (its sand in the same order as ``x1``'s sand). ``reach`` (m, default
+    0: the points' centres) is added to ``depth_dx``: how far the sand's surface lies beyond its points, half their
+    spacing for a fill (round 75: the flowing body's touch holds that surface, ``gasp_core.mpm.flow_reach``)."""
     ball = body == body.max()
     xs, xb = x1[~ball], x1[ball]
     c = xb.mean(0)
@@ -123,7 +132,7 @@ def pair_figures(x0: np.ndarray, x1: np.ndarray, body: np.ndarray, free_x1: np.n
     return {"steep": float(steep.mean()), "h_pair_mm": 1e3 * h_pair, "h_free_here_mm": 1e3 * h_free,
             "h_free_mm": 1e3 * h_peak, "pile_here": h_pair / h_free if h_free > 0 else float("inf"),
             "pile": h_pair / h_peak,
-            "depth_dx": float(np.max(R - r) / DX), "turn_deg": rotation_deg(x0[ball], xb),
+            "depth_dx": float((np.max(R - r) + reach) / DX), "turn_deg": rotation_deg(x0[ball], xb),
             "ball_travel_mm": 1e3 * float(np.linalg.norm((c - c0)[:2]))}
 
 

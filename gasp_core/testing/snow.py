@@ -59,7 +59,8 @@ def _rotation(x0: np.ndarray, x1: np.ndarray) -> np.ndarray:
     return vt.T @ np.diag([1.0, 1.0, d]) @ u.T
 
 
-def surface_depth_dx(x0: np.ndarray, x1: np.ndarray, body: np.ndarray, r: float, dx: float) -> float:
+def surface_depth_dx(x0: np.ndarray, x1: np.ndarray, body: np.ndarray, r: float, dx: float,
+                     reach: float = 0.0) -> float:
     """The deepest point of body 0 (the snow) below the surface of the last body (the ball, radius ``r`` m), in units
     of ``dx`` (m), at the end ``x1`` (n, 3) of a run that started at ``x0`` (n, 3), both in metres, setup order.
 
@@ -68,7 +69,10 @@ def surface_depth_dx(x0: np.ndarray, x1: np.ndarray, body: np.ndarray, r: float,
     ``r - |x0 - c0|`` beyond the point along it (the lattice's outer layer sits inside the sphere). A snow point's
     depth is ``(s - p) . n`` for the surface point ``s`` nearest to it; the figure is the largest over the snow
     points that lie within ``2 dx`` of the surface (positive: inside the ball; negative: the nearest snow stands
-    off). ``-inf`` when no snow point comes within 2 dx. Raises ``ValueError`` if the ball has no points."""
+    off). ``reach`` (m, default 0: the points' centres): how far the snow's surface lies beyond its points toward the
+    ball, half their spacing for a fill (round 75: the flowing body's touch holds that surface, not the centres,
+    ``gasp_core.mpm.flow_reach``); it is added to every depth. ``-inf`` when no snow point comes within 2 dx. Raises
+    ``ValueError`` if the ball has no points."""
     ball = body == body.max()
     if not ball.any():
         raise ValueError("no ball points")
@@ -85,7 +89,7 @@ def surface_depth_dx(x0: np.ndarray, x1: np.ndarray, body: np.ndarray, r: float,
     p = snow[near]
     k = np.argmin(((p[:, None, :] - surf[None, :, :]) ** 2).sum(-1), axis=1)
     depth = np.einsum("ij,ij->i", surf[k] - p, n[k])
-    return float(depth.max() / dx)
+    return float((depth.max() + reach) / dx)
 
 
 #: The slope scene's grid, box (m), ground height (m) and frame rate (1/s): ``tests/test_rigid_slope.py``'s.

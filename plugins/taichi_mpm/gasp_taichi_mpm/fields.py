@@ -58,7 +58,7 @@ class Fields(PairTouch, PairPush, FieldFlip):
         nf = self.n_grid if self.field_flip else 1
         self.grid_sv0 = ti.Vector.field(4, self.real, shape=(nf, nf, nf))
         self.grid_dv0 = ti.Vector.field(6, self.real, shape=(nf, nf, nf))
-        self.allocate_pair_touch(flow, gap)
+        self.allocate_pair_touch(flow, gap, setup)
         self.allocate_push(setup)   # round 62: an overlap let out (pair_push.py)
         # B's bodies' several frictions (round 42): B's points scatter w m mu_b to grid_fmu, the pair's per node
         self.node_mu_on = node_mu is not None

@@ -3,8 +3,9 @@ docs/contact.md "Round 37: the flowing body's touch"), warp_mpm's ``gasp_warp_mp
 
 In a ``"mixed"`` scene, after P2G and before :meth:`gasp_taichi_mpm.fields.Fields.field_contact`: :meth:`mark_flow`
 (a parallel loop over the points, atomic max) marks the 27 stencil nodes of every point of field A (the flowing
-bodies) where field B's gathered volume fraction reaches ``flow_touch_level`` (the point lies within
-``FLOW_TOUCH_DELTA`` cells of B's surface); ``field_contact`` takes those nodes as where the bodies touch, and at a
+bodies) where field B's gathered volume fraction reaches its body's level (``gasp_core.mpm.flow_reach.flow_levels``,
+round 75: the point's surface, half its body's point spacing out, lies within ``FLOW_TOUCH_DELTA`` cells of B's
+surface); ``field_contact`` takes those nodes as where the bodies touch, and at a
 touching node on A's side of the surface (``m_A > m_B``) sets A against B's mass at that node and the node behind
 it (:meth:`behind`) moving as one (Coulomb's rule, :meth:`coulomb`, on A's velocity less B's mean over the two),
 adding that node's share of the reaction to ``grid_push``; after it
@@ -23,18 +24,19 @@ it reads.
 import taichi as ti
 
 from gasp_core.mpm import fields as core_fields, gap_touch as G
-from gasp_core.mpm.fields import flow_touch_level
+from gasp_core.mpm.flow_reach import flow_levels
 
 
 @ti.data_oriented
 class PairTouch:
     """The flowing body's contact nodes (:meth:`mark_flow`) and the reaction behind them (:meth:`apply_flow`)."""
 
-    def allocate_pair_touch(self, flow: bool, gap=None) -> None:
+    def allocate_pair_touch(self, flow: bool, gap=None, setup=None) -> None:
         """``flow_touch_on`` (``flow``: ``gasp_core.mpm.fields.flow_touch``, with two fields), ``grid_ft`` (i32 per
         node, the marks) and ``grid_push`` (B's momentum from the node in front, kg m/s); one entry each when off.
         ``gap_touch_on`` (round 60: ``gap``, the touch by geometry's level per body, ``gasp_core.mpm.gap_touch``,
-        kept in ``gap_level``; None: off), whose marks take ``grid_ft`` too."""
+        kept in ``gap_level``; None: off), whose marks take ``grid_ft`` too. ``flow_level`` (round 75): the flowing
+        body's touch level per body (``gasp_core.mpm.flow_reach.flow_levels`` of ``setup``, the scene)."""
         self.flow_touch_on = bool(self.fields and flow)
         self.gap_touch_on = bool(self.fields and gap is not None)
         self.gap_curve = bool(self.gap_touch_on and G.CURVATURE)   # round 61: gap = the table, then the reaches
@@ -46,15 +48,18 @@ class PairTouch:
         self.gap_level = ti.field(self.real, shape=max(4, len(levels)))
         for b, lv in enumerate(levels):
             self.gap_level[b] = float(lv)
-        self.flow_level = float(flow_touch_level())
+        flow_lv = list(flow_levels(setup)) if self.flow_touch_on else []
+        self.flow_level = ti.field(self.real, shape=max(4, len(flow_lv)))
+        for b, lv in enumerate(flow_lv):
+            self.flow_level[b] = float(lv)
         # field A's points without their affine momentum where they meet B (transfers.p2g_prep; PIC_AT_B)
         self.pic_on = bool(self.flow_touch_on and core_fields.PIC_AT_B)
         self.p_pic = ti.field(ti.i32, shape=self.x.shape[0] if self.pic_on else 1)
 
     @ti.kernel
     def mark_flow(self):
-        """Mark the stencil nodes of field A's points where B's volume fraction reaches ``flow_level``."""
-        level = ti.cast(self.flow_level, self.real) * self.dx[None] ** 3
+        """Mark the stencil nodes of field A's points where B's volume fraction reaches their body's ``flow_level``."""
+        cell = self.dx[None] ** 3
         for p in range(self.n_points[None]):
             if self.in_a[self.body[p]] != 0:
                 base, fx, ok = self.base_fx(self.x[p])
@@ -65,7 +70,7 @@ class PairTouch:
                     phi = ti.cast(0.0, self.real)
                     for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                         phi += w[i][0] * w[j][1] * w[k][2] * self.grid_vf[base + ti.Vector([i, j, k])][1]
-                    if phi >= level:   # within FLOW_TOUCH_DELTA cells of B's surface
+                    if phi >= self.flow_level[self.body[p]] * cell:   # its surface within FLOW_TOUCH_DELTA of B's
                         if ti.static(self.pic_on):   # its next P2G without its affine momentum (PIC_AT_B)
                             self.p_pic[p] = 1
                         for i, j, k in ti.static(ti.ndrange(3, 3, 3)):

@@ -16,7 +16,8 @@ import warp as wp
 from gasp_core.mpm.contact import flowing_bodies
 from gasp_core.mpm import fields as core_fields, gap_touch as G
 from gasp_core.mpm.fields import (MIN_FRACTION, MIN_GRADIENT, body_pair, field_bodies, field_friction, flow_touch,
-                                  flow_touch_level, gap_levels, node_friction, touch_fraction, a_node_friction)
+                                  gap_levels, node_friction, touch_fraction, a_node_friction)
+from gasp_core.mpm.flow_reach import flow_levels
 from gasp_core.mpm.shared_fields import shared_field_warning
 
 from . import ENGINE
@@ -295,6 +296,8 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     # round 42: a ground's top layer free in untouched columns, the friction on B's own velocity (grid.py)
     eng.field_rule = core_fields.field_rule() if eng.fields and contact == "mixed" else 0
     eng.flow_touch_on = bool(eng.fields and flow_touch(view))   # the flowing body's touch (pair_touch.py)
+    # round 75: its level per body, the point's surface at B's (gasp_core.mpm.flow_reach.flow_levels)
+    eng.flow_level = wp.array(flow_levels(view) if eng.flow_touch_on else np.zeros(1), dtype=Ft, device=d)
     levels = gap_levels(view, bool(core_fields.GAP_TOUCH) and body_pair(view)) if eng.fields else None   # round 60
     eng.gap_touch_on = levels is not None
     eng.gap_curve = bool(eng.gap_touch_on and G.CURVATURE)   # round 61: the level reads the curvature
@@ -334,7 +337,7 @@ def field_launches(eng, Ft) -> list:
     lo = eng.k.vec3(*[float(c) for c in eng.setup.domain_lo])
     flow = [wp.launch(mark, dim=eng.n_material, device=d, record_cmd=True, inputs=[
         eng.x, eng.body, eng.in_a, eng.grid_vf, eng.flow_touch, lo, Ft(eng.inv_dx), Ft(eng.dx ** 3),
-        Ft(flow_touch_level()), ng, eng.p_pic])] if eng.flow_touch_on else []
+        eng.flow_level, ng, eng.p_pic])] if eng.flow_touch_on else []
     sweep = sweep_args(eng)   # round 64: the passes over the field box (field_nodes.py), not the whole grid
     after = [wp.launch(apply, dim=sweep[1], device=d, record_cmd=True, inputs=[
         eng.grid_mv, eng.grid_sv, eng.grid_dv, eng.flow_push, eng.flow_touch, ng, *sweep])] if eng.flow_touch_on else []

@@ -3,8 +3,8 @@ docs/contact.md "Round 37: the flowing body's touch"), taichi_mpm's ``gasp_taich
 
 In a ``"mixed"`` scene, after P2G and before :func:`gasp_warp_mpm.fields.build_fields`' ``field_contact``:
 ``flow_mark`` (a points kernel, atomic max) marks the 27 stencil nodes of every point of field A (the flowing bodies)
-where field B's gathered volume fraction reaches ``flow_touch_level`` (the point lies within ``FLOW_TOUCH_DELTA``
-cells of B's surface); ``field_contact`` takes those nodes as where the bodies touch, and at a touching node on A's
+where field B's gathered volume fraction reaches its body's level (``gasp_core.mpm.flow_reach.flow_levels``, round 75: the
+point's surface, half its body's point spacing out, lies within ``FLOW_TOUCH_DELTA`` cells of B's surface); ``field_contact`` takes those nodes as where the bodies touch, and at a touching node on A's
 side of the surface (``m_A > m_B``) sets A against B's mass at that node and the node behind it moving as one
 (Coulomb's rule on A's velocity less B's mean over the two), adding the share of the node behind it (along the
 normal, into B) to ``flow_push`` there; after it ``flow_apply`` (a node kernel) adds that
@@ -96,7 +96,7 @@ def build_pair_touch(Ft):
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def flow_mark(x: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32),
                   grid_vf: wp.array(dtype=Ft), flow_touch: wp.array(dtype=wp.int32), lo: vec3, inv_dx: Ft,
-                  cell: Ft, level: Ft, n_grid: int, p_pic: wp.array(dtype=wp.int32)):
+                  cell: Ft, levels: wp.array(dtype=Ft), n_grid: int, p_pic: wp.array(dtype=wp.int32)):
         p = wp.tid()
         if in_a[body[p]] == 0:
             return
@@ -123,7 +123,7 @@ def build_pair_touch(Ft):
             for j in range(3):
                 for k in range(3):
                     phi += W[i, 0] * W[j, 1] * W[k, 2] * grid_vf[n_nodes + idx0 + i * nn + j * n_grid + k]
-        if phi >= level * cell:   # within FLOW_TOUCH_DELTA cells of B's surface
+        if phi >= levels[body[p]] * cell:   # its surface within FLOW_TOUCH_DELTA cells of B's (flow_reach.flow_levels)
             if pic:
                 p_pic[p] = 1
             for i in range(3):
