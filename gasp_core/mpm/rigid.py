@@ -61,6 +61,33 @@ APIC_SPIN = 0.0
 #: tumbling 6 x 4 x 2 cm box at 10 rad/s gained 7.6 % of its energy in a second at 2 substeps a frame (3.0 % with
 #: APIC's inertia); ``docs/rigid.md`` "Round 67".
 ROTATION_PASSES = 4
+#: Whether a rigid body's points carry its whole spin in their affine parts (``C = [w]``) while the body still turns
+#: with its own inertia (:data:`APIC_SPIN` 0): P2G then books ``M dx^2 / 2 w`` of angular momentum in the grid on top
+#: of the body's own ``I w``, and the projection takes that booking of the spin the points carried back off what it
+#: reads (:func:`booked_share`) before ``w = I^-1 L``. The grid then holds the body's exact rigid field out to its
+#: edge nodes (APIC reproduces an affine field), as before round 67. False is rounds 67-75's transfer: ``C = 0``, a
+#: PIC field that is slower than the body at its edge nodes; under a flowing load that mismatch fed the body's spin
+#: back with a gain per substep (a hardwood box under thrown sand spun up 2x a millisecond and left the ground at
+#: +3.2 m/s at 4x the default substeps, its energy 6e4 times the start's; ``docs/rigid.md`` "Round 76").
+SPIN_BOOKED = True
+
+
+def carried_spin() -> float:
+    """The share of a rigid body's spin ``w`` its points carry in ``C`` after the projection (the grid plugins'
+    ``rigid_apply``): 1 under :data:`SPIN_BOOKED`, else :data:`APIC_SPIN`."""
+    return 1.0 if SPIN_BOOKED else float(APIC_SPIN)
+
+
+def booked_share() -> float:
+    """The share of ``M dx^2 / 2 w_prev`` (``w_prev`` the spin the points carried) the projection subtracts from the
+    angular momentum it reads: what P2G booked beyond the inertia the rigid laws use (``APIC_SPIN M dx^2 / 2``),
+    ``1 - APIC_SPIN`` under :data:`SPIN_BOOKED`, else 0."""
+    return 1.0 - float(APIC_SPIN) if SPIN_BOOKED else 0.0
+
+
+def booked_dx(dx: float) -> float:
+    """``dx sqrt(booked_share())`` (m): the spacing warp_mpm's ``rigid_update`` takes the booking's ``M dx^2 / 2`` of."""
+    return float(dx) * float(np.sqrt(booked_share()))
 
 
 

@@ -50,6 +50,10 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
         # the share of the spin the points carry in C, and so of M dx^2 / 2 in the inertia (APIC_SPIN: 0 since
         # round 67, the body's own inertia)
         self.rb_aff = ti.field(ti.f64, shape=())
+        # round 76: the share of the spin the points carry in C (gasp_core.mpm.rigid.carried_spin: 1) and the share
+        # of its M dx^2 / 2 w booking the projection takes back off the angular momentum read (booked_share)
+        self.rb_carry = ti.field(ti.f64, shape=())
+        self.rb_book = ti.field(ti.f64, shape=())
         self.rb_passes = ti.field(ti.i32, shape=())   # the rotation's midpoint passes (ROTATION_PASSES)
         self.n_bodies = nb
         # the restitution's hysteresis (set_restitution): per body its e (-1: none), the approach speed of its
@@ -86,6 +90,8 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
         self.rb_dsum = ti.Vector.field(4, ti.f64, shape=max(nb * self.n_planes, 1))
         self.rb_e.fill(-1.0)
         self.rb_aff[None] = float(core_rigid.APIC_SPIN)   # read when built (a test sets it)
+        self.rb_carry[None] = core_rigid.carried_spin()
+        self.rb_book[None] = core_rigid.booked_share()
         self.rb_passes[None] = int(core_rigid.ROTATION_PASSES)
         self.rb_flat.fill(1.0)
         self.plane_e.fill(1.0)
@@ -316,6 +322,7 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
     def rigid_update(self):
         dt = ti.cast(self.dt[None], ti.f64)
         half = 0.5 * self.rb_aff[None] * ti.cast(self.dx[None], ti.f64) ** 2
+        booked = 0.5 * self.rb_book[None] * ti.cast(self.dx[None], ti.f64) ** 2
         # each body its own (writes only its own rows): parallel on both schedules, the same bits
         for b in range(self.n_bodies):
             if self.rb_rigid[b] != 0 and self.rb_M[b] > 0.0:
@@ -323,7 +330,9 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
                 acc = self.rb_acc[b]
                 P = ti.Vector([acc[0], acc[1], acc[2]])
                 c = self.rb_c[b]
-                Lc = ti.Vector([acc[3], acc[4], acc[5]]) - c.cross(P)
+                # the body's own angular momentum: the grid's less the booking of the spin its points carried
+                # (round 76, gasp_core.mpm.rigid.SPIN_BOOKED)
+                Lc = ti.Vector([acc[3], acc[4], acc[5]]) - c.cross(P) - booked * M * self.rb_w[b]
                 R = self.rb_R[b]
                 Id = ti.Matrix.identity(ti.f64, 3)
                 w_pred = (R @ self.rb_I0[b] @ R.transpose() + half * M * Id).inverse() @ Lc
@@ -376,7 +385,7 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
             if self.rb_rigid[b] != 0:
                 R = self.rb_R[b]
                 w = self.rb_w[b]
-                wc = self.rb_aff[None] * w   # the spin the affine parts carry (APIC_SPIN: 0 since round 67)
+                wc = self.rb_carry[None] * w   # the spin the affine parts carry (round 76: all of it, booked)
                 r = R @ self.X0[p]
                 self.x[p] = ti.cast(self.rb_c[b] + r, self.real)
                 self.v[p] = ti.cast(self.rb_V[b] + w.cross(r), self.real)

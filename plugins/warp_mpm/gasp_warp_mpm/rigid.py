@@ -59,13 +59,15 @@ def build_rigid_update(Ft):
                      fx: wp.array(dtype=wp.vec4d), ndepth: wp.array(dtype=wp.int32), fv: wp.array(dtype=vec3d),
                      jx: wp.array(dtype=wp.float64), deep: wp.array(dtype=wp.float64),
                      flat: wp.array(dtype=wp.float64), xf: wp.array(dtype=vec3d), V0: wp.array(dtype=vec3d),
-                     jsup: wp.array(dtype=wp.float64), passes: int):
+                     jsup: wp.array(dtype=wp.float64), passes: int, dxb: wp.float64):
         b = wp.tid()   # one thread a body: each writes its own rows (dim = n_bodies)
         M = mass[b]
         if rigid[b] != 0 and M > wp.float64(0.0):
             P = acc_p[b]
             c = centre[b]
-            Lc = acc_l[b] - wp.cross(c, P)
+            # the body's own angular momentum: what the grid gave back less the affine parts' booking of the spin the
+            # points carried (gasp_core.mpm.rigid.SPIN_BOOKED: C = [w], their M dxb^2 / 2 w added by P2G)
+            Lc = acc_l[b] - wp.cross(c, P) - wp.float64(0.5) * dxb * dxb * M * spin[b]
             R = rot[b]
             extra = wp.float64(0.5) * dx * dx * M * wp.identity(3, wp.float64)
             # round 67: the rotation by the implicit midpoint (the spin at exp(dt w / 2) R, ROTATION_PASSES fixed-point
@@ -325,10 +327,10 @@ class RigidBodies:
                     self.rb_c0, ex.rb_jn, ex.rb_je, ex.rb_j, ex.rb_e, ex.v_rest, lift_off_rule(),
                     vec3d(*[float(g) for g in self.setup.gravity]), self.rb_steps, ex.rb_count, ex.rb_nlast,
                     ex.rb_twist, ex.rb_fx, ex.rb_ndepth, ex.rb_fv, ex.rb_jx, ex.rb_deep, ex.rb_flat, ex.rb_xf,
-                    self.rb_V0, self.rb_jsup, int(core_rigid.ROTATION_PASSES)]),
+                    self.rb_V0, self.rb_jsup, int(core_rigid.ROTATION_PASSES), core_rigid.booked_dx(dx)]),
                 wp.launch(apply_k, dim=self.n_points, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.C, self.F, self.body, self.rb_rigid, self.X0, self.rb_c, self.rb_R,
-                    self.rb_V, self.rb_w, float(core_rigid.APIC_SPIN)])]
+                    self.rb_V, self.rb_w, core_rigid.carried_spin()])]
         self._rigid_pose = out[-1]   # rigid_apply: every point of a rigid body on its pose
         if self.pair == 1:   # two rigid bodies: their contact as one, before their points take the pose
             from gasp_core.mpm.rigid_pairs import support_data   # round 65: the bodies' support tables (rolling)
