@@ -15,6 +15,14 @@ box stays (``test_sand_on_an_inelastic_box``). Fixed (round 60, ``restitution.LI
 raises the body's normal speed at most to the free-flight bounce plus the other bodies' normal impulse over the
 contact over ``M`` (``docs/contact.md`` "Round 60: the rebound under a load"); the rule before (``"set"``) fails
 the check (``test_the_check_catches_the_free_flight_rule``).
+
+Round 76: the check read 1x and 2x only, and at 4x the box left the ground at +3.18 m/s (warp_mpm; +7.26 on
+taichi_mpm), its spin doubling every 1.1 ms under the sand, the scene's energy 5.9e4 times the start's, and warp_mpm
+diverged at 8x. Cause: rounds 67-75's rigid transfer (the points carried no spin in ``C``, a PIC field slower than the
+body at its edge nodes). Fixed by ``gasp_core.mpm.rigid.SPIN_BOOKED`` (the points carry ``C = [w]``, the projection
+takes P2G's booking of it back): both engines 0.0000 m/s at 2x, 4x and 8x. The hardwood check now reads 2x, 4x and 8x
+against 1x on both engines, and sand's neighbour snow beside it; ``test_the_check_catches_the_transfer_before`` shows
+the transfer before failing it.
 """
 from __future__ import annotations
 
@@ -55,9 +63,27 @@ def test_sand_on_an_inelastic_box(engine):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("engine", ENGINES)
-def test_sand_on_a_hardwood_box(engine):
-    """The default restitution (hardwood, 0.55): the same check, 1x against 2x."""
-    _check(engine, "sand_rigid", 2)
+@pytest.mark.parametrize("name", ["sand_rigid", "snow_rigid"])
+def test_a_hardwood_box_under_thrown_sand_or_snow(engine, name):
+    """The default restitution (hardwood, 0.55): the same check, 1x against 2x, 4x and 8x (round 76: the transfer
+    before left the sand's box at +3.18 m/s at 4x on warp_mpm, +7.26 on taichi_mpm)."""
+    r1 = finestep_paths.run(engine, name)   # 1x: the engine's own substeps for the scene
+    v1 = float(r1["box_v"][2])
+    assert abs(v1) <= REL * GT, (v1, "the box under the flowing body at the default step")
+    for k in (2, 4, 8):
+        rk = finestep_paths.run(engine, name, k * r1["n_substeps"])
+        vk = float(rk["box_v"][2])
+        assert np.isfinite(vk) and abs(vk - v1) <= REL * GT, (v1, vk, f"the box's v_z at {k}x the substeps against 1x")
+
+
+@pytest.mark.skipif("warp_mpm" not in ENGINES, reason="needs warp_mpm")
+def test_the_check_catches_the_transfer_before(monkeypatch):
+    """Rounds 67-75's rigid transfer (``gasp_core.mpm.rigid.SPIN_BOOKED`` off: the points carry no spin in ``C``)
+    fails the hardwood check at 4x: the box left at +3.18 m/s (warp_mpm, round 76)."""
+    from gasp_core.mpm import rigid
+    monkeypatch.setattr(rigid, "SPIN_BOOKED", False)
+    with pytest.raises(AssertionError, match="4x the substeps"):
+        _check("warp_mpm", "sand_rigid", 4)
 
 
 @pytest.mark.skipif("warp_mpm" not in ENGINES, reason="needs warp_mpm")

@@ -60,6 +60,23 @@ def test_projection_keeps_a_rigid_motion(spin):
     assert np.linalg.norm(w0) > 1.01 * np.linalg.norm(w) if spin == 0.0 else np.linalg.norm(w0) < 0.99 * np.linalg.norm(w)
 
 
+
+def test_projection_takes_the_booked_spin_back():
+    """Round 76 (``SPIN_BOOKED``, the engines' default): the points carry the whole ``[w]`` in ``C`` and the body
+    turns with its own inertia (inertia share 0); the booking ``M dx^2 / 2 w`` taken back, a rigid motion projects onto
+    itself; left in (``booked`` None), the spin comes out ``1 + M dx^2 / (2 I)`` times high."""
+    rng = np.random.default_rng(1)
+    x = rng.uniform(-0.1, 0.1, (300, 3))
+    m = np.full(300, 0.3)
+    w = np.array([0.5, -2.0, 3.0])
+    c = x.mean(0)
+    v = np.array([0.1, 0.0, -1.0]) + np.cross(w, x - c)
+    C = np.broadcast_to(skew(w), (300, 3, 3))
+    _, _, w1 = rigid_project(x, v, C, m, DX, 0.0, booked=w)
+    assert np.allclose(w1, w, rtol=1e-10)
+    _, _, w0 = rigid_project(x, v, C, m, DX, 0.0)
+    assert np.linalg.norm(w0) > 1.01 * np.linalg.norm(w)
+
 def ball(E=2e11, rho=7850.0, model="auto", name="jelly", lift=0.05, r=0.05, n=2000, **kw):
     rng = np.random.default_rng(3)
     d = rng.normal(size=(n, 3))

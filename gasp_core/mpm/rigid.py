@@ -291,7 +291,8 @@ def skew(w) -> np.ndarray:
     return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
 
 
-def rigid_project(x: np.ndarray, v: np.ndarray, C: np.ndarray, m: np.ndarray, dx: float, spin: float | None = None):
+def rigid_project(x: np.ndarray, v: np.ndarray, C: np.ndarray, m: np.ndarray, dx: float, spin: float | None = None,
+                  booked=None):
     """Project one body's point velocities onto the rigid motion with the same momentum and angular momentum.
 
     Parameters
@@ -306,6 +307,10 @@ def rigid_project(x: np.ndarray, v: np.ndarray, C: np.ndarray, m: np.ndarray, dx
         Grid spacing, m (APIC's ``D = dx^2 / 4 I``).
     spin : float, optional
         The share of ``w`` the points carry in their ``C`` (:data:`APIC_SPIN` when None).
+    booked : array_like, shape (3,), optional
+        Under :data:`SPIN_BOOKED`: the spin (rad/s) the points carried into the P2G that gave ``v`` and ``C``; its
+        booking ``booked_share() M dx^2 / 2 booked`` is taken off ``L`` first (the engines pass the body's spin of
+        the substep before). None: nothing is taken off.
 
     Returns
     -------
@@ -329,6 +334,8 @@ def rigid_project(x: np.ndarray, v: np.ndarray, C: np.ndarray, m: np.ndarray, dx
     P = (m[:, None] * v).sum(axis=0)
     r = x - c
     L = (m[:, None] * np.cross(r, v)).sum(axis=0) + 0.25 * dx * dx * (m[:, None] * affine_spin(C)).sum(axis=0)
+    if booked is not None:
+        L = L - 0.5 * booked_share() * dx * dx * M * np.asarray(booked, dtype=np.float64)
     inertia = (np.eye(3) * (m * (r * r).sum(axis=1)).sum() - np.einsum("n,ni,nj->ij", m, r, r)
                + np.eye(3) * 0.5 * spin * dx * dx * M)
     w = np.linalg.solve(inertia, L)
