@@ -86,7 +86,7 @@ def booked_share() -> float:
 
 
 def booked_dx(dx: float) -> float:
-    """``dx sqrt(booked_share())`` (m): the spacing warp_mpm's ``rigid_update`` takes the booking's ``M dx^2 / 2`` of."""
+    """``dx sqrt(booked_share())`` (m): the spacing a grid plugin's ``rigid_update`` may take the booking's ``M dx^2 / 2`` of."""
     return float(dx) * float(np.sqrt(booked_share()))
 
 

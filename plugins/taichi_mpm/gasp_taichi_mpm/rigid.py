@@ -8,8 +8,8 @@ fixed order: the same numbers on any thread count; the CPU schedule's kernel, in
 :mod:`gasp_taichi_mpm.schedule.ordered`; the GPU schedule's :meth:`Rigid.rigid_reduce_gpu` sums slices by a fixed
 tree); :meth:`Rigid.rigid_update` turns them into the body's velocity and spin and advances its centre and rotation;
 :meth:`Rigid.rigid_apply` puts every point of the body (its passive points too) on the rigid pose ``c + R X0`` with
-the rigid velocity, ``C`` the spin's skew matrix times ``APIC_SPIN`` (0 since round 67: the body's own inertia,
-``gasp_core.mpm.rigid.APIC_SPIN``) and ``F = R``; with the particle contact's planes ``rigid_depth``
+the rigid velocity, ``C`` the spin's skew matrix (``carried_spin()``, 1 since round 76; ``rigid_update`` takes
+P2G's booking of it back: ``gasp_core.mpm.rigid.SPIN_BOOKED``) and ``F = R``; with the particle contact's planes ``rigid_depth``
 and :meth:`Rigid.rigid_lift` then move a resting body deeper than the slop out without speed
 (``gasp_core.mpm.rigid_friction.settle_projection``, Bullet's split impulse; issue 53) and :meth:`Rigid.rigid_apply`
 runs again.

@@ -5,8 +5,8 @@ After each G2P: ``rigid_reduce`` sums each rigid body's momentum and angular mom
 affine part included) over its points into float64 accumulators (atomic adds: on the CPU Warp runs a launch
 serially, so the order is the point order); ``rigid_update`` (one thread a body) turns them into the body's velocity
 and spin and advances its centre and rotation; ``rigid_apply`` puts every point of the body (its passive points too) on
-the rigid pose ``c + R X0`` with the rigid velocity, ``C`` the spin's skew matrix times ``APIC_SPIN`` (0 since round
-67: the body's own inertia, ``gasp_core.mpm.rigid.APIC_SPIN``) and ``F = R``. With the particle
+the rigid pose ``c + R X0`` with the rigid velocity, ``C`` the spin's skew matrix (``carried_spin()``, 1 since round 76;
+``rigid_update`` takes P2G's booking of it back: ``gasp_core.mpm.rigid.SPIN_BOOKED``) and ``F = R``. With the particle
 contact's planes, ``rigid_depth`` and ``rigid_lift`` (:func:`build_rigid_lift`) then move a resting body deeper than
 the slop out without speed (``gasp_core.mpm.rigid_friction.settle_projection``, Bullet's split impulse; issue 53) and
 ``rigid_apply`` runs again.
@@ -248,7 +248,7 @@ def build_rigid(Ft):
             return
         R = rot[b]
         w = spin[b]
-        wc = spin_c * w   # the spin the affine parts carry (gasp_core.mpm.rigid.APIC_SPIN: 0 since round 67)
+        wc = spin_c * w   # the spin the affine parts carry (gasp_core.mpm.rigid.carried_spin: 1 since round 76)
         r = R * X0[p]
         xn = centre[b] + r
         vn = vel[b] + wp.cross(w, r)
