@@ -42,12 +42,14 @@ def _other(name, s, opts, n_grid):
                     options=opts), len(parts[0])
 
 
-def scene(name, n_substeps=None, n_grid=32, speed=5.0):
-    """``(setup, n_box)``: the scene ``name`` (module notes); the box's points come first."""
+def scene(name, n_substeps=None, n_grid=32, speed=5.0, box=(0.12, 0.12, 0.06)):
+    """``(setup, n_box)``: the scene ``name`` (module notes); the box's points come first. ``box`` (m): its sides
+    (x, y, z), on the ground, centred under the ball (round 76's family)."""
     dx = 0.6 / n_grid; s = dx / 2
     if name in ("jelly_walls", "three"):
         return _other(name, s, {} if n_substeps is None else {"n_substeps": int(n_substeps)}, n_grid)
-    xb, _ = box_points((-0.06, -0.06, 0.0), (0.06, 0.06, 0.06), s)
+    bx, by, bz = box
+    xb, _ = box_points((-bx / 2, -by / 2, 0.0), (bx / 2, by / 2, bz), s)
     kind = name.split("_")[0]
     rigid = "rigid" in name or kind == "box"
     box = (Material("jelly", E=1e10, rho=700.0, model="rigid", restitution=0.0 if name.endswith("_e0") else None)
@@ -55,7 +57,7 @@ def scene(name, n_substeps=None, n_grid=32, speed=5.0):
     mats, xs = [box], np.zeros((0, 3))
     if kind != "box":
         g = np.mgrid[-0.05:0.05:s, -0.05:0.05:s, -0.05:0.05:s].reshape(3, -1).T + s / 2
-        xs = g[np.linalg.norm(g, axis=1) <= 0.05] + np.array([0.0, 0.0, 0.065 + 0.05])
+        xs = g[np.linalg.norm(g, axis=1) <= 0.05] + np.array([0.0, 0.0, bz + 0.005 + 0.05])
         mats.append(Material(kind))
     x = np.vstack([xb, xs]); v = np.zeros_like(x); v[len(xb):, 2] = -speed
     body = np.r_[np.zeros(len(xb), int), np.ones(len(xs), int)]
@@ -71,9 +73,10 @@ def energy(x, v, m):
     return float(0.5 * (m * (v ** 2).sum(1)).sum() + 9.81 * (m * x[:, 2]).sum())
 
 
-def run(eng, name, n_substeps=None, frames=1, n_grid=32):
-    """The figures after ``frames`` frames: dict of box_v (3,), box_dz (mm), below (points), e_ratio, n_substeps."""
-    st, nb = scene(name, n_substeps, n_grid)
+def run(eng, name, n_substeps=None, frames=1, n_grid=32, box=(0.12, 0.12, 0.06)):
+    """The figures after ``frames`` frames: dict of box_v (3,), box_dz (mm), below (points), e_ratio, n_substeps,
+    box_w (rad/s, the box's largest point speed about its mean over its half-diagonal: its spin's size)."""
+    st, nb = scene(name, n_substeps, n_grid, box=box)
     rho = np.array([mt.rho for mt in st.materials])
     m = rho[st.body_id] * st.p_vol
     e = build_engine(engines()[eng], st)
@@ -84,9 +87,10 @@ def run(eng, name, n_substeps=None, frames=1, n_grid=32):
         x = np.asarray(e.positions(), float); v = np.asarray(e.velocities(), float)
         dz = x[:nb, 2].mean() - x0[:nb, 2].mean()
         xs = x[nb:]
-        inside = (np.abs(xs[:, 0]) < 0.06) & (np.abs(xs[:, 1]) < 0.06) & (xs[:, 2] < 0.06 + dz)
+        inside = (np.abs(xs[:, 0]) < box[0] / 2) & (np.abs(xs[:, 1]) < box[1] / 2) & (xs[:, 2] < box[2] + dz)
         bodies = [v[np.asarray(st.body_id) == b].mean(0) for b in range(len(st.materials))]
-        return dict(box_v=v[:nb].mean(0), body_v=bodies, x_max=float(x[:, 0].max()), box_dz=1e3 * dz, below=int(inside.sum()),
+        box_w = float(np.linalg.norm(v[:nb] - v[:nb].mean(0), axis=1).max() / (0.5 * np.linalg.norm(box)))
+        return dict(box_v=v[:nb].mean(0), box_w=box_w, body_v=bodies, x_max=float(x[:, 0].max()), box_dz=1e3 * dz, below=int(inside.sum()),
                     e_ratio=energy(x, v, m) / e0, n_substeps=e.stats()["n_substeps"])
     finally:
         e.close()

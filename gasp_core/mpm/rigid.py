@@ -61,33 +61,50 @@ APIC_SPIN = 0.0
 #: tumbling 6 x 4 x 2 cm box at 10 rad/s gained 7.6 % of its energy in a second at 2 substeps a frame (3.0 % with
 #: APIC's inertia); ``docs/rigid.md`` "Round 67".
 ROTATION_PASSES = 4
-#: Whether a rigid body's points carry its whole spin in their affine parts (``C = [w]``) while the body still turns
-#: with its own inertia (:data:`APIC_SPIN` 0): P2G then books ``M dx^2 / 2 w`` of angular momentum in the grid on top
-#: of the body's own ``I w``, and the projection takes that booking of the spin the points carried back off what it
-#: reads (:func:`booked_share`) before ``w = I^-1 L``. The grid then holds the body's exact rigid field out to its
-#: edge nodes (APIC reproduces an affine field), as before round 67. False is rounds 67-75's transfer: ``C = 0``, a
-#: PIC field that is slower than the body at its edge nodes; under a flowing load that mismatch fed the body's spin
-#: back with a gain per substep (a hardwood box under thrown sand spun up 2x a millisecond and left the ground at
-#: +3.2 m/s at 4x the default substeps, its energy 6e4 times the start's; ``docs/rigid.md`` "Round 76").
+#: Whether a rigid body alone in its grid field carries its whole spin in its points' affine parts (``C = [w]``)
+#: while it still turns with its own inertia (:data:`APIC_SPIN` 0): P2G then books ``M dx^2 / 2 w`` of angular
+#: momentum in the grid on top of the body's own ``I w``, and the projection takes that booking of the spin the points
+#: carried back off what it reads (:func:`booked_share`) before ``w = I^-1 L``. The grid then holds the body's exact
+#: rigid field out to its edge nodes (APIC reproduces an affine field), as before round 67. False is rounds 67-75's
+#: transfer: ``C = 0``, a PIC field slower than the body at its edge nodes; under a flowing load that mismatch fed the
+#: body's spin back with a gain per substep (a hardwood box under thrown sand spun up 2x a millisecond and left the
+#: ground at +3.2 m/s at 4x the default substeps, its energy 6e4 times the start's; ``docs/rigid.md`` "Round 76").
+#: A rigid body that shares its field with another body (the fragments of a broken body, three or more bodies on one
+#: field) keeps the transfer before (:func:`spin_shares`): there a node mixes the bodies' bookings, and each body
+#: would read back part of the others' (the cup at 20 m/s diverged in its first frame, both engines).
 SPIN_BOOKED = True
 
 
 def carried_spin() -> float:
     """The share of a rigid body's spin ``w`` its points carry in ``C`` after the projection (the grid plugins'
-    ``rigid_apply``): 1 under :data:`SPIN_BOOKED`, else :data:`APIC_SPIN`."""
+    ``rigid_apply``) where it books (:func:`spin_shares`): 1 under :data:`SPIN_BOOKED`, else :data:`APIC_SPIN`."""
     return 1.0 if SPIN_BOOKED else float(APIC_SPIN)
 
 
 def booked_share() -> float:
     """The share of ``M dx^2 / 2 w_prev`` (``w_prev`` the spin the points carried) the projection subtracts from the
-    angular momentum it reads: what P2G booked beyond the inertia the rigid laws use (``APIC_SPIN M dx^2 / 2``),
-    ``1 - APIC_SPIN`` under :data:`SPIN_BOOKED`, else 0."""
+    angular momentum it reads where a body books (:func:`spin_shares`): what P2G booked beyond the inertia the rigid
+    laws use (``APIC_SPIN M dx^2 / 2``), ``1 - APIC_SPIN`` under :data:`SPIN_BOOKED`, else 0."""
     return 1.0 - float(APIC_SPIN) if SPIN_BOOKED else 0.0
 
 
-def booked_dx(dx: float) -> float:
-    """``dx sqrt(booked_share())`` (m): the spacing a grid plugin's ``rigid_update`` may take the booking's ``M dx^2 / 2`` of."""
-    return float(dx) * float(np.sqrt(booked_share()))
+def spin_shares(setup) -> tuple[np.ndarray, np.ndarray]:
+    """``(carry, book)``, each shape (n_bodies,), float64: per body the share of its spin its points carry in ``C``
+    and the share of ``M dx^2 / 2 w_prev`` its projection takes back (the grid plugins' ``rigid_apply`` and
+    ``rigid_update``). A rigid body alone in its grid field (``gasp_core.mpm.fields.field_bodies``; one field: the
+    scene's only body with points) takes :func:`carried_spin` and :func:`booked_share`; every other body
+    :data:`APIC_SPIN` and 0 (rounds 67-75's transfer; a soft body's row is not read)."""
+    from gasp_core.mpm.fields import field_bodies
+    n = len(setup.materials)
+    carry, book = np.full(n, float(APIC_SPIN)), np.zeros(n)
+    rigid = np.asarray(rigid_mask(setup.materials), bool)
+    present = np.bincount(np.asarray(setup.body_id), minlength=n)[:n] > 0
+    fields = field_bodies(setup)
+    side = np.zeros(n, bool) if fields is None else np.asarray(fields, bool)
+    for b in np.flatnonzero(rigid & present):
+        if int((present & (side == side[b])).sum()) == 1:
+            carry[b], book[b] = carried_spin(), booked_share()
+    return carry, book
 
 
 

@@ -232,6 +232,8 @@ class TaichiMPMEngine(GridEngineBase, StateClock):
 
     def _rigid_extras(self, setup: SimSetup, flows: np.ndarray, any_rigid: bool) -> None:
         """Rigid bodies' restitution, hold of the flowing points (``flows``: per body) and pairs (round 62, rigid_pairs)."""
+        from gasp_core.mpm.rigid import spin_shares
+        self.solver.set_spin_shares(*spin_shares(setup))   # round 76: the spin the points carry, booked
         self.solver.set_restitution(body_table(setup), plane_table(setup, self.solver.n_planes), rest_speed(setup),
                                     face_counts(setup))
         self.solver.allocate_rigid_hold(*hold_setup(setup, setup.dx, flows, any_rigid), flows)

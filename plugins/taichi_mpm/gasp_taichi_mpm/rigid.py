@@ -8,8 +8,8 @@ fixed order: the same numbers on any thread count; the CPU schedule's kernel, in
 :mod:`gasp_taichi_mpm.schedule.ordered`; the GPU schedule's :meth:`Rigid.rigid_reduce_gpu` sums slices by a fixed
 tree); :meth:`Rigid.rigid_update` turns them into the body's velocity and spin and advances its centre and rotation;
 :meth:`Rigid.rigid_apply` puts every point of the body (its passive points too) on the rigid pose ``c + R X0`` with
-the rigid velocity, ``C`` the spin's skew matrix (``carried_spin()``, 1 since round 76; ``rigid_update`` takes
-P2G's booking of it back: ``gasp_core.mpm.rigid.SPIN_BOOKED``) and ``F = R``; with the particle contact's planes ``rigid_depth``
+the rigid velocity, ``C`` the spin's skew matrix times its body's carried share (``gasp_core.mpm.rigid.spin_shares``:
+1 for a body alone in its field since round 76, ``rigid_update`` taking P2G's booking of it back; else ``APIC_SPIN``) and ``F = R``; with the particle contact's planes ``rigid_depth``
 and :meth:`Rigid.rigid_lift` then move a resting body deeper than the slop out without speed
 (``gasp_core.mpm.rigid_friction.settle_projection``, Bullet's split impulse; issue 53) and :meth:`Rigid.rigid_apply`
 runs again.
@@ -52,8 +52,8 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
         self.rb_aff = ti.field(ti.f64, shape=())
         # round 76: the share of the spin the points carry in C (gasp_core.mpm.rigid.carried_spin: 1) and the share
         # of its M dx^2 / 2 w booking the projection takes back off the angular momentum read (booked_share)
-        self.rb_carry = ti.field(ti.f64, shape=())
-        self.rb_book = ti.field(ti.f64, shape=())
+        self.rb_carry = ti.field(ti.f64, shape=max(nb, 1))
+        self.rb_book = ti.field(ti.f64, shape=max(nb, 1))
         self.rb_passes = ti.field(ti.i32, shape=())   # the rotation's midpoint passes (ROTATION_PASSES)
         self.n_bodies = nb
         # the restitution's hysteresis (set_restitution): per body its e (-1: none), the approach speed of its
@@ -90,8 +90,8 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
         self.rb_dsum = ti.Vector.field(4, ti.f64, shape=max(nb * self.n_planes, 1))
         self.rb_e.fill(-1.0)
         self.rb_aff[None] = float(core_rigid.APIC_SPIN)   # read when built (a test sets it)
-        self.rb_carry[None] = core_rigid.carried_spin()
-        self.rb_book[None] = core_rigid.booked_share()
+        self.rb_carry.fill(float(core_rigid.APIC_SPIN))   # until set_spin_shares (the engine's, per body)
+        self.rb_book.fill(0.0)
         self.rb_passes[None] = int(core_rigid.ROTATION_PASSES)
         self.rb_flat.fill(1.0)
         self.plane_e.fill(1.0)
@@ -110,6 +110,13 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
         buf = np.zeros((cap, 3))
         buf[:len(X0)] = X0
         self.X0.from_numpy(buf)
+
+    def set_spin_shares(self, carry, book) -> None:
+        """Per body the share of its spin its points carry in ``C`` and of its ``M dx^2 / 2 w`` booking the
+        projection takes back (``gasp_core.mpm.rigid.spin_shares``, round 76; shapes (n_bodies,))."""
+        n = self.rb_carry.shape[0]
+        self.rb_carry.from_numpy(np.resize(np.asarray(carry, np.float64), n))
+        self.rb_book.from_numpy(np.resize(np.asarray(book, np.float64), n))
 
     def set_restitution(self, body_e, plane_e, v_rest: float, n_face) -> None:
         """The rigid bodies' restitution (``gasp_core.mpm.restitution``): ``body_e`` per body (shape
@@ -322,7 +329,7 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
     def rigid_update(self):
         dt = ti.cast(self.dt[None], ti.f64)
         half = 0.5 * self.rb_aff[None] * ti.cast(self.dx[None], ti.f64) ** 2
-        booked = 0.5 * self.rb_book[None] * ti.cast(self.dx[None], ti.f64) ** 2
+        dx2 = 0.5 * ti.cast(self.dx[None], ti.f64) ** 2
         # each body its own (writes only its own rows): parallel on both schedules, the same bits
         for b in range(self.n_bodies):
             if self.rb_rigid[b] != 0 and self.rb_M[b] > 0.0:
@@ -332,7 +339,7 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
                 c = self.rb_c[b]
                 # the body's own angular momentum: the grid's less the booking of the spin its points carried
                 # (round 76, gasp_core.mpm.rigid.SPIN_BOOKED)
-                Lc = ti.Vector([acc[3], acc[4], acc[5]]) - c.cross(P) - booked * M * self.rb_w[b]
+                Lc = ti.Vector([acc[3], acc[4], acc[5]]) - c.cross(P) - dx2 * self.rb_book[b] * M * self.rb_w[b]
                 R = self.rb_R[b]
                 Id = ti.Matrix.identity(ti.f64, 3)
                 w_pred = (R @ self.rb_I0[b] @ R.transpose() + half * M * Id).inverse() @ Lc
@@ -385,7 +392,7 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
             if self.rb_rigid[b] != 0:
                 R = self.rb_R[b]
                 w = self.rb_w[b]
-                wc = self.rb_carry[None] * w   # the spin the affine parts carry (round 76: all of it, booked)
+                wc = self.rb_carry[b] * w   # the spin the affine parts carry (round 76: spin_shares)
                 r = R @ self.X0[p]
                 self.x[p] = ti.cast(self.rb_c[b] + r, self.real)
                 self.v[p] = ti.cast(self.rb_V[b] + w.cross(r), self.real)

@@ -5,8 +5,9 @@ After each G2P: ``rigid_reduce`` sums each rigid body's momentum and angular mom
 affine part included) over its points into float64 accumulators (atomic adds: on the CPU Warp runs a launch
 serially, so the order is the point order); ``rigid_update`` (one thread a body) turns them into the body's velocity
 and spin and advances its centre and rotation; ``rigid_apply`` puts every point of the body (its passive points too) on
-the rigid pose ``c + R X0`` with the rigid velocity, ``C`` the spin's skew matrix (``carried_spin()``, 1 since round 76;
-``rigid_update`` takes P2G's booking of it back: ``gasp_core.mpm.rigid.SPIN_BOOKED``) and ``F = R``. With the particle
+the rigid pose ``c + R X0`` with the rigid velocity, ``C`` the spin's skew matrix times its body's carried share
+(``gasp_core.mpm.rigid.spin_shares``: 1 for a body alone in its field since round 76, ``rigid_update`` taking P2G's
+booking of it back; else ``APIC_SPIN``, 0) and ``F = R``. With the particle
 contact's planes, ``rigid_depth`` and ``rigid_lift`` (:func:`build_rigid_lift`) then move a resting body deeper than
 the slop out without speed (``gasp_core.mpm.rigid_friction.settle_projection``, Bullet's split impulse; issue 53) and
 ``rigid_apply`` runs again.
@@ -59,15 +60,16 @@ def build_rigid_update(Ft):
                      fx: wp.array(dtype=wp.vec4d), ndepth: wp.array(dtype=wp.int32), fv: wp.array(dtype=vec3d),
                      jx: wp.array(dtype=wp.float64), deep: wp.array(dtype=wp.float64),
                      flat: wp.array(dtype=wp.float64), xf: wp.array(dtype=vec3d), V0: wp.array(dtype=vec3d),
-                     jsup: wp.array(dtype=wp.float64), passes: int, dxb: wp.float64):
+                     jsup: wp.array(dtype=wp.float64), passes: int, dxf: wp.float64,
+                     book: wp.array(dtype=wp.float64)):
         b = wp.tid()   # one thread a body: each writes its own rows (dim = n_bodies)
         M = mass[b]
         if rigid[b] != 0 and M > wp.float64(0.0):
             P = acc_p[b]
             c = centre[b]
             # the body's own angular momentum: what the grid gave back less the affine parts' booking of the spin the
-            # points carried (gasp_core.mpm.rigid.SPIN_BOOKED: C = [w], their M dxb^2 / 2 w added by P2G)
-            Lc = acc_l[b] - wp.cross(c, P) - wp.float64(0.5) * dxb * dxb * M * spin[b]
+            # points carried (round 76, gasp_core.mpm.rigid.spin_shares: C = [w], their book M dx^2 / 2 w by P2G)
+            Lc = acc_l[b] - wp.cross(c, P) - wp.float64(0.5) * book[b] * dxf * dxf * M * spin[b]
             R = rot[b]
             extra = wp.float64(0.5) * dx * dx * M * wp.identity(3, wp.float64)
             # round 67: the rotation by the implicit midpoint (the spin at exp(dt w / 2) R, ROTATION_PASSES fixed-point
@@ -241,14 +243,14 @@ def build_rigid(Ft):
     def rigid_apply(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), C: wp.array(dtype=mat33),
                     F: wp.array(dtype=mat33), body: wp.array(dtype=wp.int32), rigid: wp.array(dtype=wp.int32),
                     X0: wp.array(dtype=vec3d), centre: wp.array(dtype=vec3d), rot: wp.array(dtype=mat33d),
-                    vel: wp.array(dtype=vec3d), spin: wp.array(dtype=vec3d), spin_c: wp.float64):
+                    vel: wp.array(dtype=vec3d), spin: wp.array(dtype=vec3d), carry: wp.array(dtype=wp.float64)):
         p = wp.tid()
         b = body[p]
         if rigid[b] == 0:
             return
         R = rot[b]
         w = spin[b]
-        wc = spin_c * w   # the spin the affine parts carry (gasp_core.mpm.rigid.carried_spin: 1 since round 76)
+        wc = carry[b] * w   # the spin the affine parts carry (gasp_core.mpm.rigid.spin_shares, round 76)
         r = R * X0[p]
         xn = centre[b] + r
         vn = vel[b] + wp.cross(w, r)
@@ -319,6 +321,8 @@ class RigidBodies:
         self.rb_steps = wp.zeros(len(self.setup.materials), dtype=wp.int32, device=d)
         self.rb_V0 = wp.zeros(len(self.setup.materials), dtype=vec3d, device=d)   # the velocity before the contact
         self.rb_jsup = wp.zeros(len(self.setup.materials), dtype=wp.float64, device=d)   # its supports' sum j
+        carry, book = core_rigid.spin_shares(self.setup)   # round 76: the spin the points carry, and its booking
+        self.rb_carry, self.rb_book = (wp.array(a, dtype=wp.float64, device=d) for a in (carry, book))
         out = [wp.launch(reduce_k, dim=self.n_material, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.C, self.p_mass, self.body, self.rb_rigid, dx, self.acc_p, self.acc_l]),
                 wp.launch(update_k, dim=len(self.setup.materials), device=d, record_cmd=True, inputs=[
@@ -327,10 +331,10 @@ class RigidBodies:
                     self.rb_c0, ex.rb_jn, ex.rb_je, ex.rb_j, ex.rb_e, ex.v_rest, lift_off_rule(),
                     vec3d(*[float(g) for g in self.setup.gravity]), self.rb_steps, ex.rb_count, ex.rb_nlast,
                     ex.rb_twist, ex.rb_fx, ex.rb_ndepth, ex.rb_fv, ex.rb_jx, ex.rb_deep, ex.rb_flat, ex.rb_xf,
-                    self.rb_V0, self.rb_jsup, int(core_rigid.ROTATION_PASSES), core_rigid.booked_dx(dx)]),
+                    self.rb_V0, self.rb_jsup, int(core_rigid.ROTATION_PASSES), dx, self.rb_book]),
                 wp.launch(apply_k, dim=self.n_points, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.C, self.F, self.body, self.rb_rigid, self.X0, self.rb_c, self.rb_R,
-                    self.rb_V, self.rb_w, core_rigid.carried_spin()])]
+                    self.rb_V, self.rb_w, self.rb_carry])]
         self._rigid_pose = out[-1]   # rigid_apply: every point of a rigid body on its pose
         if self.pair == 1:   # two rigid bodies: their contact as one, before their points take the pose
             from gasp_core.mpm.rigid_pairs import support_data   # round 65: the bodies' support tables (rolling)
