@@ -50,17 +50,25 @@ def scene(name, n_substeps=None, n_grid=32, speed=5.0, box=(0.12, 0.12, 0.06)):
         return _other(name, s, {} if n_substeps is None else {"n_substeps": int(n_substeps)}, n_grid)
     bx, by, bz = box
     xb, _ = box_points((-bx / 2, -by / 2, 0.0), (bx / 2, by / 2, bz), s)
+    twin = name.endswith("2")   # round 76: two boxes, the halves along x one spacing apart, sharing a field
+    if twin:
+        name = name[:-1]
+        xb2, _ = box_points((s / 2, -by / 2, 0.0), (bx / 2, by / 2, bz), s)
+        xb, _ = box_points((-bx / 2, -by / 2, 0.0), (-s / 2, by / 2, bz), s)
+        xb = np.vstack([xb, xb2])
     kind = name.split("_")[0]
     rigid = "rigid" in name or kind == "box"
     box = (Material("jelly", E=1e10, rho=700.0, model="rigid", restitution=0.0 if name.endswith("_e0") else None)
            if rigid else Material("jelly", E=1e5, rho=700.0))
-    mats, xs = [box], np.zeros((0, 3))
+    mats, xs = [box, box] if twin else [box], np.zeros((0, 3))
     if kind != "box":
         g = np.mgrid[-0.05:0.05:s, -0.05:0.05:s, -0.05:0.05:s].reshape(3, -1).T + s / 2
         xs = g[np.linalg.norm(g, axis=1) <= 0.05] + np.array([0.0, 0.0, bz + 0.005 + 0.05])
         mats.append(Material(kind))
     x = np.vstack([xb, xs]); v = np.zeros_like(x); v[len(xb):, 2] = -speed
     body = np.r_[np.zeros(len(xb), int), np.ones(len(xs), int)]
+    if twin:   # the first half body 0, the second body 1, the flowing ball body 2
+        body = np.r_[(xb[:, 0] > 0).astype(int), np.full(len(xs), 2)]
     opts = {} if n_substeps is None else {"n_substeps": int(n_substeps)}
     return SimSetup(x=x, v=v, p_vol=np.full(len(x), s ** 3), body_id=body, materials=mats,
                     gravity=np.array([0, 0, -9.81]), domain_lo=np.array([-0.3, -0.3, -0.02]),
