@@ -1,4 +1,5 @@
 """The rigid limit of a stiff body (issue 40, ``docs/rigid.md``): the projection, the route choice and its keys."""
+import dataclasses
 import warnings
 from pathlib import Path
 
@@ -178,3 +179,30 @@ def test_route_without_a_ground_assumes_a_fall_to_the_domain_floor():
     s.boundaries = []
     r, _ = routes(s)
     assert r["model"] == "elastic" and r["impact_speed"] == pytest.approx(np.sqrt(2 * 9.81 * s.x[:, 2].min()), rel=1e-6)
+
+
+def test_spin_shares_book_a_body_alone_or_one_whose_booking_ratio_is_at_most_one():
+    """Round 76 (``gasp_core.mpm.rigid.spin_shares``): the hardwood box on its own field of the two-field contact and
+    the two halves of it that share a field (booking ratio 0.29) book; a small rigid cube two spacings across that
+    shares its field with another (ratio above 1: a fragment's) keeps the transfer before, while one alone in its field
+    books; a sand body's row is 0."""
+    import sys as _sys
+    from pathlib import Path as _Path
+    from gasp_core.mpm.rigid import booking_ratio, spin_shares
+    _sys.path.insert(0, str(_Path(__file__).resolve().parents[1] / "benchmarks" / "studies"))
+    import finestep_paths
+    st, _ = finestep_paths.scene("sand_rigid")
+    carry, book = spin_shares(st)
+    assert carry.tolist() == [1.0, 0.0] and book.tolist() == [1.0, 0.0]
+    st2, _ = finestep_paths.scene("sand_rigid2")
+    r = booking_ratio(st2)
+    assert 0.2 < r[0] < 0.4 and 0.2 < r[1] < 0.4 and r[2] == 0.0, r
+    assert spin_shares(st2)[1].tolist() == [1.0, 1.0, 0.0]
+    s = st.dx / 2   # three rigid cubes of 2 x 2 x 2 points in a row: coloured A, B, A (the first and last share A)
+    cube = np.mgrid[0:2, 0:2, 0:2].reshape(3, -1).T * s
+    x = np.vstack([cube + [0.0, 0.0, 0.01], cube + [3 * s, 0.0, 0.01], cube + [6 * s, 0.0, 0.01]])
+    mats = [Material("jelly", E=1e10, rho=700.0, model="rigid")] * 3
+    tiny = dataclasses.replace(st, x=x, v=np.zeros_like(x), p_vol=np.full(len(x), s ** 3),
+                               body_id=np.repeat([0, 1, 2], 8), materials=mats)
+    assert (booking_ratio(tiny) > 1.0).all(), booking_ratio(tiny)
+    assert spin_shares(tiny)[1].tolist() == [0.0, 1.0, 0.0]   # the middle one alone in its field books
