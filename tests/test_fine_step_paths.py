@@ -19,7 +19,7 @@ the check (``test_the_check_catches_the_free_flight_rule``).
 Round 76: the check read 1x and 2x only, and at 4x the box left the ground at +3.18 m/s (warp_mpm; +7.26 on
 taichi_mpm), its spin doubling every 1.1 ms under the sand, the scene's energy 5.9e4 times the start's, and warp_mpm
 diverged at 8x. Cause: rounds 67-75's rigid transfer (the points carried no spin in ``C``, a PIC field slower than the
-body at its edge nodes). Fixed by ``gasp_core.mpm.rigid.SPIN_BOOKED`` (the points carry ``C = [w]``, the projection
+body at its edge nodes). Fixed by ``gasp_core.mpm.spin_booking.SPIN_BOOKED`` (the points carry ``C = [w]``, the projection
 takes P2G's booking of it back): both engines 0.0000 m/s at 2x, 4x and 8x. The hardwood check now reads 2x, 4x and 8x
 against 1x on both engines, and sand's neighbour snow beside it; ``test_the_check_catches_the_transfer_before`` shows
 the transfer before failing it.
@@ -86,10 +86,10 @@ def test_a_hardwood_box_under_thrown_sand_or_snow(engine, name):
 
 @pytest.mark.skipif("warp_mpm" not in ENGINES, reason="needs warp_mpm")
 def test_the_check_catches_the_transfer_before(monkeypatch):
-    """Rounds 67-75's rigid transfer (``gasp_core.mpm.rigid.SPIN_BOOKED`` off: the points carry no spin in ``C``)
+    """Rounds 67-75's rigid transfer (``gasp_core.mpm.spin_booking.SPIN_BOOKED`` off: the points carry no spin in ``C``)
     fails the hardwood check at 4x: the box left at +3.18 m/s (warp_mpm, round 76)."""
-    from gasp_core.mpm import rigid
-    monkeypatch.setattr(rigid, "SPIN_BOOKED", False)
+    from gasp_core.mpm import spin_booking
+    monkeypatch.setattr(spin_booking, "SPIN_BOOKED", False)
     with pytest.raises(AssertionError, match="4x the substeps"):
         _check("warp_mpm", "sand_rigid", 4)
 
@@ -117,7 +117,7 @@ def test_the_two_body_check_catches_the_transfer_before(monkeypatch):
     """The same transfer on the two halves that share a field: the run diverges at 4x (warp_mpm, round 76: 358,691
     point-substeps out of the grid), where the booked spin keeps them at rest."""
     from gasp_core.errors import EngineDivergence
-    from gasp_core.mpm import rigid
-    monkeypatch.setattr(rigid, "SPIN_BOOKED", False)
+    from gasp_core.mpm import spin_booking
+    monkeypatch.setattr(spin_booking, "SPIN_BOOKED", False)
     with pytest.raises(EngineDivergence):
         finestep_paths.run("warp_mpm", "sand_rigid2", 4 * N1)

@@ -182,13 +182,13 @@ def test_route_without_a_ground_assumes_a_fall_to_the_domain_floor():
 
 
 def test_spin_shares_book_a_body_alone_or_one_whose_booking_ratio_is_at_most_one():
-    """Round 76 (``gasp_core.mpm.rigid.spin_shares``): the hardwood box on its own field of the two-field contact and
+    """Round 76 (``gasp_core.mpm.spin_booking.spin_shares``): the hardwood box on its own field of the two-field contact and
     the two halves of it that share a field (booking ratio 0.29) book; a small rigid cube two spacings across that
     shares its field with another (ratio above 1: a fragment's) keeps the transfer before, while one alone in its field
     books; a sand body's row is 0."""
     import sys as _sys
     from pathlib import Path as _Path
-    from gasp_core.mpm.rigid import booking_ratio, spin_shares
+    from gasp_core.mpm.spin_booking import booking_ratio, spin_shares
     _sys.path.insert(0, str(_Path(__file__).resolve().parents[1] / "benchmarks" / "studies"))
     import finestep_paths
     st, _ = finestep_paths.scene("sand_rigid")

@@ -46,14 +46,14 @@ def test_the_spin_check_catches_the_explicit_rotation(engine, monkeypatch):
 
 @pytest.mark.parametrize("engine", ENGINES)
 def test_the_spin_check_catches_a_booking_left_in(engine, monkeypatch):
-    """Round 76 (``gasp_core.mpm.rigid.SPIN_BOOKED``): the points carry ``C = [w]`` and the projection takes P2G's
+    """Round 76 (``gasp_core.mpm.spin_booking.SPIN_BOOKED``): the points carry ``C = [w]`` and the projection takes P2G's
     ``M dx^2 / 2 w`` booking back off what it reads. An engine that leaves it in (``booked_share`` 0) reads the box's
     spin ``(1 + M dx^2 / (2 I))`` times too high at every substep: the spin grows until the run diverges (frame 19-24
     of 60, both engines, round 76)."""
-    import gasp_core.mpm.rigid as core_rigid
     from gasp_core.errors import EngineDivergence
+    from gasp_core.mpm import spin_booking
     needs_package(f"gasp_{engine}")
-    monkeypatch.setattr(core_rigid, "booked_share", lambda: 0.0)
+    monkeypatch.setattr(spin_booking, "booked_share", lambda: 0.0)
     try:
         r = measure_spin(engine, "box", (0, 0, 1))
     except EngineDivergence:

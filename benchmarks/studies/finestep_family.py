@@ -35,8 +35,8 @@ def family(eng, names=("sand_rigid", "snow_rigid", "sand_rigid2"), grids=(32, 48
 if __name__ == "__main__":
     eng = sys.argv[1]
     if "--before" in sys.argv:
-        from gasp_core.mpm import rigid
-        rigid.SPIN_BOOKED = False
+        from gasp_core.mpm import spin_booking
+        spin_booking.SPIN_BOOKED = False
     print(f"<!-- {time.strftime('%Y-%m-%d %H:%M')} {eng} SPIN_BOOKED {'off' if '--before' in sys.argv else 'on'} -->")
     print("| scene | box | n_grid | k | substeps | box v_z (m/s) | spin (rad/s) | E / E0 |")
     print("|---|---|---|---|---|---|---|---|")

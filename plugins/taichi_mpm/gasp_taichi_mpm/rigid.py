@@ -8,7 +8,7 @@ fixed order: the same numbers on any thread count; the CPU schedule's kernel, in
 :mod:`gasp_taichi_mpm.schedule.ordered`; the GPU schedule's :meth:`Rigid.rigid_reduce_gpu` sums slices by a fixed
 tree); :meth:`Rigid.rigid_update` turns them into the body's velocity and spin and advances its centre and rotation;
 :meth:`Rigid.rigid_apply` puts every point of the body (its passive points too) on the rigid pose ``c + R X0`` with
-the rigid velocity, ``C`` the spin's skew matrix times its body's carried share (``gasp_core.mpm.rigid.spin_shares``:
+the rigid velocity, ``C`` the spin's skew matrix times its body's carried share (``gasp_core.mpm.spin_booking.spin_shares``:
 1 for a body alone in its field since round 76, ``rigid_update`` taking P2G's booking of it back; else ``APIC_SPIN``) and ``F = R``; with the particle contact's planes ``rigid_depth``
 and :meth:`Rigid.rigid_lift` then move a resting body deeper than the slop out without speed
 (``gasp_core.mpm.rigid_friction.settle_projection``, Bullet's split impulse; issue 53) and :meth:`Rigid.rigid_apply`
@@ -50,8 +50,7 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
         # the share of the spin the points carry in C, and so of M dx^2 / 2 in the inertia (APIC_SPIN: 0 since
         # round 67, the body's own inertia)
         self.rb_aff = ti.field(ti.f64, shape=())
-        # round 76: the share of the spin the points carry in C (gasp_core.mpm.rigid.carried_spin: 1) and the share
-        # of its M dx^2 / 2 w booking the projection takes back off the angular momentum read (booked_share)
+        # round 76: per body the share of the spin carried in C and of its booking taken back (spin_booking.py)
         self.rb_carry = ti.field(ti.f64, shape=max(nb, 1))
         self.rb_book = ti.field(ti.f64, shape=max(nb, 1))
         self.rb_passes = ti.field(ti.i32, shape=())   # the rotation's midpoint passes (ROTATION_PASSES)
@@ -111,12 +110,12 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
         buf[:len(X0)] = X0
         self.X0.from_numpy(buf)
 
-    def set_spin_shares(self, carry, book) -> None:
-        """Per body the share of its spin its points carry in ``C`` and of its ``M dx^2 / 2 w`` booking the
-        projection takes back (``gasp_core.mpm.rigid.spin_shares``, round 76; shapes (n_bodies,))."""
-        n = self.rb_carry.shape[0]
-        self.rb_carry.from_numpy(np.resize(np.asarray(carry, np.float64), n))
-        self.rb_book.from_numpy(np.resize(np.asarray(book, np.float64), n))
+    def set_spin_shares(self, setup) -> None:
+        """Per body the share of its spin its points carry in ``C`` and of its booking the projection takes back
+        (``gasp_core.mpm.spin_booking.spin_shares``, round 76)."""
+        from gasp_core.mpm.spin_booking import spin_shares
+        for f, a in zip((self.rb_carry, self.rb_book), spin_shares(setup)):
+            f.from_numpy(np.resize(np.asarray(a, np.float64), f.shape[0]))
 
     def set_restitution(self, body_e, plane_e, v_rest: float, n_face) -> None:
         """The rigid bodies' restitution (``gasp_core.mpm.restitution``): ``body_e`` per body (shape
@@ -338,7 +337,7 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
                 P = ti.Vector([acc[0], acc[1], acc[2]])
                 c = self.rb_c[b]
                 # the body's own angular momentum: the grid's less the booking of the spin its points carried
-                # (round 76, gasp_core.mpm.rigid.SPIN_BOOKED)
+                # (round 76, gasp_core.mpm.spin_booking.SPIN_BOOKED)
                 Lc = ti.Vector([acc[3], acc[4], acc[5]]) - c.cross(P) - dx2 * self.rb_book[b] * M * self.rb_w[b]
                 R = self.rb_R[b]
                 Id = ti.Matrix.identity(ti.f64, 3)

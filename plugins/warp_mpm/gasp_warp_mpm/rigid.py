@@ -6,7 +6,7 @@ affine part included) over its points into float64 accumulators (atomic adds: on
 serially, so the order is the point order); ``rigid_update`` (one thread a body) turns them into the body's velocity
 and spin and advances its centre and rotation; ``rigid_apply`` puts every point of the body (its passive points too) on
 the rigid pose ``c + R X0`` with the rigid velocity, ``C`` the spin's skew matrix times its body's carried share
-(``gasp_core.mpm.rigid.spin_shares``: 1 for a body alone in its field since round 76, ``rigid_update`` taking P2G's
+(``gasp_core.mpm.spin_booking.spin_shares``: 1 for a body alone in its field since round 76, ``rigid_update`` taking P2G's
 booking of it back; else ``APIC_SPIN``, 0) and ``F = R``. With the particle
 contact's planes, ``rigid_depth`` and ``rigid_lift`` (:func:`build_rigid_lift`) then move a resting body deeper than
 the slop out without speed (``gasp_core.mpm.rigid_friction.settle_projection``, Bullet's split impulse; issue 53) and
@@ -68,7 +68,7 @@ def build_rigid_update(Ft):
             P = acc_p[b]
             c = centre[b]
             # the body's own angular momentum: what the grid gave back less the affine parts' booking of the spin the
-            # points carried (round 76, gasp_core.mpm.rigid.spin_shares: C = [w], their book M dx^2 / 2 w by P2G)
+            # points carried (round 76, gasp_core.mpm.spin_booking.spin_shares: C = [w], their book M dx^2 / 2 w by P2G)
             Lc = acc_l[b] - wp.cross(c, P) - wp.float64(0.5) * book[b] * dxf * dxf * M * spin[b]
             R = rot[b]
             extra = wp.float64(0.5) * dx * dx * M * wp.identity(3, wp.float64)
@@ -250,7 +250,7 @@ def build_rigid(Ft):
             return
         R = rot[b]
         w = spin[b]
-        wc = carry[b] * w   # the spin the affine parts carry (gasp_core.mpm.rigid.spin_shares, round 76)
+        wc = carry[b] * w   # the spin the affine parts carry (gasp_core.mpm.spin_booking.spin_shares, round 76)
         r = R * X0[p]
         xn = centre[b] + r
         vn = vel[b] + wp.cross(w, r)
@@ -321,7 +321,8 @@ class RigidBodies:
         self.rb_steps = wp.zeros(len(self.setup.materials), dtype=wp.int32, device=d)
         self.rb_V0 = wp.zeros(len(self.setup.materials), dtype=vec3d, device=d)   # the velocity before the contact
         self.rb_jsup = wp.zeros(len(self.setup.materials), dtype=wp.float64, device=d)   # its supports' sum j
-        carry, book = core_rigid.spin_shares(self.setup)   # round 76: the spin the points carry, and its booking
+        from gasp_core.mpm import spin_booking
+        carry, book = spin_booking.spin_shares(self.setup)   # round 76: the spin the points carry, and its booking
         self.rb_carry, self.rb_book = (wp.array(a, dtype=wp.float64, device=d) for a in (carry, book))
         out = [wp.launch(reduce_k, dim=self.n_material, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.C, self.p_mass, self.body, self.rb_rigid, dx, self.acc_p, self.acc_l]),
