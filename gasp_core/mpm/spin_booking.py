@@ -14,7 +14,7 @@ from gasp_core.mpm.rigid import body_frames, rigid_mask
 
 def _apic() -> float:
     """``gasp_core.mpm.rigid.APIC_SPIN`` as it is now (a test may set it)."""
-    from gasp_core.mpm import rigid
+    import gasp_core.mpm.rigid as rigid
     return float(rigid.APIC_SPIN)
 
 
