@@ -9,40 +9,33 @@ from __future__ import annotations
 
 import numpy as np
 
+import gasp_core.mpm.rigid as _rigid   # APIC_SPIN read when called (a test sets it)
 from gasp_core.mpm.rigid import body_frames, rigid_mask
 
 
-def _apic() -> float:
-    """``gasp_core.mpm.rigid.APIC_SPIN`` as it is now (a test may set it)."""
-    import gasp_core.mpm.rigid as rigid
-    return float(rigid.APIC_SPIN)
-
-
-#: Whether a rigid body alone in its grid field carries its whole spin in its points' affine parts (``C = [w]``)
-#: while it still turns with its own inertia (``gasp_core.mpm.rigid.APIC_SPIN`` 0): P2G then books ``M dx^2 / 2 w`` of angular
-#: momentum in the grid on top of the body's own ``I w``, and the projection takes that booking of the spin the points
-#: carried back off what it reads (:func:`booked_share`) before ``w = I^-1 L``. The grid then holds the body's exact
-#: rigid field out to its edge nodes (APIC reproduces an affine field), as before round 67. False is rounds 67-75's
-#: transfer: ``C = 0``, a PIC field slower than the body at its edge nodes; under a flowing load that mismatch fed the
-#: body's spin back with a gain per substep (a hardwood box under thrown sand spun up 2x a millisecond and left the
-#: ground at +3.2 m/s at 4x the default substeps, its energy 6e4 times the start's; ``docs/rigid.md`` "Round 76").
-#: A rigid body that shares its field with another body (the fragments of a broken body, three or more bodies on one
-#: field) keeps the transfer before (:func:`spin_shares`): there a node mixes the bodies' bookings, and each body
-#: would read back part of the others' (the cup at 20 m/s diverged in its first frame, both engines).
+#: Whether a rigid body carries its whole spin in its points' affine parts (``C = [w]``) while it still turns with
+#: its own inertia (``gasp_core.mpm.rigid.APIC_SPIN`` 0): P2G then books ``M dx^2 / 2 w`` of angular momentum in the
+#: grid on top of the body's own ``I w``, and the projection takes that booking of the spin the points carried back
+#: off what it reads (:func:`booked_share`) before ``w = I^-1 L``. The grid then holds the body's exact rigid field
+#: out to its edge nodes (APIC reproduces an affine field), as before round 67. False is rounds 67-75's transfer:
+#: ``C = 0``, a PIC field slower than the body at its edge nodes; under a flowing load that mismatch fed the body's
+#: spin back with a gain per substep (a hardwood box under thrown sand spun up 2x a millisecond and left the ground at
+#: +3.2 m/s at 4x the default substeps, its energy 6e4 times the start's; ``docs/rigid.md`` "Round 76"). Which
+#: bodies book: :func:`spin_shares` (alone in their field, or a booking ratio of at most 1).
 SPIN_BOOKED = True
 
 
 def carried_spin() -> float:
     """The share of a rigid body's spin ``w`` its points carry in ``C`` after the projection (the grid plugins'
     ``rigid_apply``) where it books (:func:`spin_shares`): 1 under :data:`SPIN_BOOKED`, else ``APIC_SPIN``."""
-    return 1.0 if SPIN_BOOKED else float(_apic())
+    return 1.0 if SPIN_BOOKED else float(_rigid.APIC_SPIN)
 
 
 def booked_share() -> float:
     """The share of ``M dx^2 / 2 w_prev`` (``w_prev`` the spin the points carried) the projection subtracts from the
     angular momentum it reads where a body books (:func:`spin_shares`): what P2G booked beyond the inertia the rigid
     laws use (``APIC_SPIN M dx^2 / 2``), ``1 - APIC_SPIN`` under :data:`SPIN_BOOKED`, else 0."""
-    return 1.0 - float(_apic()) if SPIN_BOOKED else 0.0
+    return 1.0 - float(_rigid.APIC_SPIN) if SPIN_BOOKED else 0.0
 
 
 def booking_ratio(setup) -> np.ndarray:
@@ -70,7 +63,7 @@ def spin_shares(setup) -> tuple[np.ndarray, np.ndarray]:
     ``APIC_SPIN`` and 0 (rounds 67-75's transfer; a soft body's row is not read)."""
     from gasp_core.mpm.fields import field_bodies
     n = len(setup.materials)
-    carry, book = np.full(n, float(_apic())), np.zeros(n)
+    carry, book = np.full(n, float(_rigid.APIC_SPIN)), np.zeros(n)
     rigid = np.asarray(rigid_mask(setup.materials), bool)
     present = np.bincount(np.asarray(setup.body_id), minlength=n)[:n] > 0
     fields = field_bodies(setup)
