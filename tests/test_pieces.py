@@ -177,3 +177,6 @@ def test_the_frames_only_count_parts_blocks_apart_by_more_than_the_gap_and_count
     assert FramePieces(x, m, 1.5 * H, 2 * H).count(moved) == 64
     assert FramePieces(x, m, 1.5 * H, 4 * H).count(moved) == 1
     assert FramePieces(x, m, 1.5 * H, 2 * H).count(moved, share=0.02) == 0
+    kept, alone = FramePieces(x, m, 1.5 * H, 2 * H, remember=True), FramePieces(x, m, 1.5 * H, 2 * H)
+    assert [kept.count(y) for y in (x, moved, x)] == [1, 64, 64]   # round 77: apart once, apart for good
+    assert [alone.count(y) for y in (x, moved, x)] == [1, 64, 1]   # each frame alone: together again

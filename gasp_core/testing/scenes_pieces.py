@@ -32,24 +32,43 @@ def ball_setup(speed: float, n_grid: int = 32, radius: float = 0.1) -> SimSetup:
                       options={"precision": "f32", "threads": 1})
 
 
+def rejoined_share(t: PieceTracker, cut: np.ndarray, x: np.ndarray, x_rest: np.ndarray, gap: float) -> float:
+    """Of the links ``cut`` (shape (n_links,), bool) of tracker ``t``, the share whose points at ``x`` (n, 3), m, are
+    within their rest distance (at ``x_rest``) plus ``gap`` (m), as :class:`FramePieces` holds a link; 0 where none is
+    cut."""
+    if not cut.any():
+        return 0.0
+    a, b = t.pairs[cut, 0], t.pairs[cut, 1]
+    x, x_rest = np.asarray(x, np.float64), np.asarray(x_rest, np.float64)
+    rest = np.linalg.norm(x_rest[a] - x_rest[b], axis=1)
+    return float(np.mean(np.linalg.norm(x[a] - x[b], axis=1) <= rest + gap))
+
+
 def counted_run(name: str, setup: SimSetup, n_frames: int, tracker: PieceTracker | None = None) -> dict:
     """Run ``setup`` on engine ``name`` for ``n_frames`` frames; per frame (0 .. n_frames) lists ``tracker`` (the
     run's pieces, crumbs apart), ``tracker_1`` and ``tracker_5`` (its pieces of at least 1 and 5 % of the mass),
-    ``frames_1`` (:class:`FramePieces`'s count, 1 %) and ``debris``. ``tracker``: the tracker to count with (a broken
-    variant in the tests); default :func:`gasp_core.run.pieces.tracker_for`."""
+    ``frames_1`` (:class:`FramePieces`'s count, 1 %), ``frames_kept_1`` (the same with ``remember``: a link opened on
+    a frame stays open), ``debris`` and ``rejoined`` (round 77, :func:`rejoined_share`:
+    the share of the links the tracker had cut by the frame before that hold again in the frames-only reference: the
+    pieces meeting again). ``tracker``: the tracker to count with (a broken variant in the tests); default
+    :func:`gasp_core.run.pieces.tracker_for`."""
     t = tracker_for(setup) if tracker is None else tracker
     spacing = float(np.cbrt(np.max(setup.p_vol)))
     ref = FramePieces(setup.x, setup.p_mass, LINK_RADIUS * spacing, setup.dx)
+    kept = FramePieces(setup.x, setup.p_mass, LINK_RADIUS * spacing, setup.dx, remember=True)
     total = float(np.sum(setup.p_mass))
-    out = {k: [] for k in ("tracker", "tracker_1", "tracker_5", "frames_1", "debris")}
+    out = {k: [] for k in ("tracker", "tracker_1", "tracker_5", "frames_1", "frames_kept_1", "debris", "rejoined")}
 
     def count(x, d):
+        was = t.cut.copy()
+        out["rejoined"].append(rejoined_share(t, was, x, setup.x, setup.dx))
         row = t.row(x, d)[0]
         out["tracker"].append(row["pieces"])
         out["debris"].append(row["debris"])
         out["tracker_1"].append(tracker_count(row, total, 0.01))
         out["tracker_5"].append(tracker_count(row, total, 0.05))
         out["frames_1"].append(ref.count(x))
+        out["frames_kept_1"].append(kept.count(x))
 
     count(setup.x, None)
     e = build_engine(engines()[name], setup)
