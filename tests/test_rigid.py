@@ -181,11 +181,14 @@ def test_route_without_a_ground_assumes_a_fall_to_the_domain_floor():
     assert r["model"] == "elastic" and r["impact_speed"] == pytest.approx(np.sqrt(2 * 9.81 * s.x[:, 2].min()), rel=1e-6)
 
 
-def test_spin_shares_book_a_body_alone_or_one_whose_booking_ratio_is_at_most_one():
+def test_spin_shares_book_a_body_alone_or_one_whose_booking_ratio_is_at_most_one(monkeypatch):
     """Round 76 (``gasp_core.mpm.spin_booking.spin_shares``): the hardwood box on its own field of the two-field contact and
     the two halves of it that share a field (booking ratio 0.29) book; a small rigid cube two spacings across that
     shares its field with another (ratio above 1: a fragment's) keeps the transfer before, while one alone in its field
-    books; a sand body's row is 0."""
+    books; a sand body's row is 0. Round 77: where the scene is coloured again at every frame (three cubes) its fields
+    change during the run, so being alone at the build does not count there: none of the three books (the middle one
+    did before round 77; with ``RECOLOUR`` off the fields hold and it books again)."""
+    from gasp_core.mpm import colouring
     import sys as _sys
     from pathlib import Path as _Path
     from gasp_core.mpm.spin_booking import booking_ratio, spin_shares
@@ -205,4 +208,7 @@ def test_spin_shares_book_a_body_alone_or_one_whose_booking_ratio_is_at_most_one
     tiny = dataclasses.replace(st, x=x, v=np.zeros_like(x), p_vol=np.full(len(x), s ** 3),
                                body_id=np.repeat([0, 1, 2], 8), materials=mats)
     assert (booking_ratio(tiny) > 1.0).all(), booking_ratio(tiny)
-    assert spin_shares(tiny)[1].tolist() == [0.0, 1.0, 0.0]   # the middle one alone in its field books
+    assert colouring.coloured(tiny)
+    assert spin_shares(tiny)[1].tolist() == [0.0, 0.0, 0.0]   # recoloured per frame: the ratio alone decides
+    monkeypatch.setattr(colouring, "RECOLOUR", False)
+    assert spin_shares(tiny)[1].tolist() == [0.0, 1.0, 0.0]   # the build's fields hold: the middle one, alone, books

@@ -60,7 +60,14 @@ def spin_shares(setup) -> tuple[np.ndarray, np.ndarray]:
     exactly its own booking, or when its :func:`booking_ratio` is at most 1: where bodies share a field, a node mixes
     their bookings and a body's spin takes up to that ratio times the spin difference of its neighbours, so above 1
     it overshoots it (the cup's fragments at 20 m/s, ratios up to 4.8, diverged). Every other body takes
-    ``APIC_SPIN`` and 0 (rounds 67-75's transfer; a soft body's row is not read)."""
+    ``APIC_SPIN`` and 0 (rounds 67-75's transfer; a soft body's row is not read).
+
+    Round 77: in a scene coloured again at every frame (``gasp_core.mpm.colouring.RECOLOUR`` and
+    ``colouring.coloured``: three or more bodies on the particle contact) a body's field-mates change during the run,
+    so only the ratio decides there: the shares are set once at the build, and a body alone at the build that came to
+    share its field would book what its neighbours' nodes mix (a switch between frames would misread one substep:
+    the points carry the old share). Such scenes have no flowing body, whose load fed the transfer before."""
+    from gasp_core.mpm import colouring
     from gasp_core.mpm.fields import field_bodies
     n = len(setup.materials)
     carry, book = np.full(n, float(_rigid.APIC_SPIN)), np.zeros(n)
@@ -69,7 +76,8 @@ def spin_shares(setup) -> tuple[np.ndarray, np.ndarray]:
     fields = field_bodies(setup)
     side = np.zeros(n, bool) if fields is None else np.asarray(fields, bool)
     ratio = booking_ratio(setup)
+    fixed = not (colouring.RECOLOUR and colouring.coloured(setup))   # the fields hold for the whole run
     for b in np.flatnonzero(rigid & present):
-        if int((present & (side == side[b])).sum()) == 1 or ratio[b] <= 1.0:
+        if (fixed and int((present & (side == side[b])).sum()) == 1) or ratio[b] <= 1.0:
             carry[b], book[b] = carried_spin(), booked_share()
     return carry, book
