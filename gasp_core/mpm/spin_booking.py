@@ -67,7 +67,7 @@ def spin_shares(setup) -> tuple[np.ndarray, np.ndarray]:
     so only the ratio decides there: the shares are set once at the build, and a body alone at the build that came to
     share its field would book what its neighbours' nodes mix (a switch between frames would misread one substep:
     the points carry the old share). Such scenes have no flowing body, whose load fed the transfer before."""
-    from gasp_core.mpm import colouring
+    import gasp_core.mpm.colouring as colouring
     from gasp_core.mpm.fields import field_bodies
     n = len(setup.materials)
     carry, book = np.full(n, float(_rigid.APIC_SPIN)), np.zeros(n)
