@@ -1,7 +1,8 @@
 """The fill's mass over a family of specimens (issue 66, "Mass"; item 3's shapes): sum(p_vol) is the enclosed volume
 within 2 %, the centre of mass within a fifth of a fill spacing, and no fill point more than a quarter of a spacing
 outside the surface (item 3 asks for a quarter: see ``OUT_TOL``), on straight bars of three lengths and two sections, dog-bones of two proportions, a cantilever, a
-simply supported beam, balls and the paper's cup (R 4 cm, 1 cm wall), at two fill resolutions.
+simply supported beam, balls, solid cylinders (round 77) and the paper's cup (R 4 cm, 1 cm wall), at two fill
+resolutions.
 
 Each specimen is GaMeS splats on its faces (flat Gaussians at uniform random points, 4 mm apart on average, as
 ``gasp_core.testing.meshes.mesh_splats`` lays them), filled at the spacing a default scene gives it
@@ -92,6 +93,12 @@ def ball(R):
     return _mesh(trimesh.creation.icosphere(subdivisions=5, radius=R), lambda x: np.linalg.norm(x, axis=1) - R)
 
 
+def cylinder(R, H):
+    """A solid cylinder of radius ``R`` and height ``H`` about the z axis, centred (round 77: item 3 names cylinders)."""
+    return _mesh(trimesh.creation.cylinder(radius=R, height=H, sections=128),
+                 lambda x: np.maximum(np.hypot(x[:, 0], x[:, 1]) - R, np.abs(x[:, 2]) - H / 2))
+
+
 def cup(R=0.04, wall=0.01, H=0.08):
     """The paper's cup: outer radius ``R``, wall and bottom ``wall`` thick, ``H`` tall, open at the top."""
     prof = np.array([[0, 0], [R, 0], [R, H], [R - wall, H], [R - wall, wall], [0, wall]])
@@ -119,6 +126,8 @@ SPECIMENS = {
     "ball R 5 cm": lambda: ball(0.05),
     "ball R 2 cm": lambda: ball(0.02),
     "cup R 4 cm, wall 1 cm": cup,
+    "cylinder R 2 cm x 10 cm": lambda: cylinder(0.02, 0.10),
+    "cylinder R 4 cm x 4 cm": lambda: cylinder(0.04, 0.04),
 }
 #: The default tier's share of the family (about 10 s); the slow tier runs every specimen at n_grid 32, 48 and 64.
 QUICK = [("bar 0.2 x 0.04", 32), ("bar 0.12 x 0.025", 64), ("dog-bone 7/4", 32), ("dog-bone 5/2", 64),
