@@ -60,8 +60,7 @@ def counted_run(name: str, setup: SimSetup, n_frames: int, tracker: PieceTracker
     out = {k: [] for k in ("tracker", "tracker_1", "tracker_5", "frames_1", "frames_kept_1", "debris", "rejoined")}
 
     def count(x, d):
-        was = t.cut.copy()
-        out["rejoined"].append(rejoined_share(t, was, x, setup.x, setup.dx))
+        out["rejoined"].append(rejoined_share(t, t.cut, x, setup.x, setup.dx))   # before row() cuts this frame's
         row = t.row(x, d)[0]
         out["tracker"].append(row["pieces"])
         out["debris"].append(row["debris"])
