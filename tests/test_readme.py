@@ -115,6 +115,34 @@ def test_test_command_is_what_ci_installs_and_runs():
     assert any(d.startswith("playwright") for d in extras["browser"])
 
 
+def same_named_test_files(roots: list[Path]) -> dict[str, list[str]]:
+    """{basename: [paths]} of the ``test_*.py`` files under ``roots`` whose basename is taken more than once."""
+    seen: dict[str, list[str]] = {}
+    for top in roots:
+        for f in sorted(top.rglob("test_*.py")):
+            if "node_modules" not in f.parts:
+                seen.setdefault(f.name, []).append(str(f))
+    return {n: fs for n, fs in seen.items() if len(fs) > 1}
+
+
+def test_the_test_command_collects_no_two_test_files_of_one_name():
+    """pytest's default import mode (rootdir-relative ``sys.path``, no ``__init__.py``) imports every test file
+    under its basename, so two ``test_x.py`` under the testpaths stop the whole run at collection (stop 121's CI:
+    ``tests/test_taichi_schedule.py`` beside ``plugins/taichi_mpm/tests/test_taichi_schedule.py``)."""
+    import tomllib
+    paths = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["pytest"]["ini_options"]["testpaths"]
+    assert len(list((ROOT / "tests").glob("test_*.py"))) > 100   # the walk has a suite to read
+    assert same_named_test_files([ROOT / p for p in paths]) == {}
+
+
+def test_the_name_check_catches_a_test_file_named_twice(tmp_path):
+    for d in ("tests", "plugins/x/tests"):
+        (tmp_path / d).mkdir(parents=True)
+        (tmp_path / d / "test_a.py").write_text("")
+    (tmp_path / "tests" / "test_b.py").write_text("")
+    assert list(same_named_test_files([tmp_path / "tests", tmp_path / "plugins"])) == ["test_a.py"]
+
+
 def test_quick_start_is_one_command_that_installs_and_simulates():
     block = re.search(r"## Quick start\n(.*?)\n## ", readme(), re.S).group(1)
     code = re.findall(r"^```bash\n(.*?)^```", block, re.S | re.M)

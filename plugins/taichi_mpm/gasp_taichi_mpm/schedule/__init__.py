@@ -16,7 +16,7 @@ Rule (from the anchors, ``../shared/design/gpu-first.md``): no ``ti.loop_config(
 ``block_dim=1`` in a kernel the GPU schedule compiles. Layout: every ordered one-thread loop of the CPU schedule is in
 the CPU-only module :mod:`gasp_taichi_mpm.schedule.ordered` (the rigid bodies' and the balance's ordered sums and
 fix, the chunked P2G's one-thread chunks, the coloured sort's offsets, the viscous dots' in-order sum); the modules of
-both schedules hold none. ``tests/test_taichi_schedule.py`` checks both: no such loop in another module's syntax
+both schedules hold none. ``plugins/taichi_mpm/tests/test_taichi_schedule.py`` checks both: no such loop in another module's syntax
 tree, none compiled while a GPU-schedule frame runs.
 """
 from __future__ import annotations

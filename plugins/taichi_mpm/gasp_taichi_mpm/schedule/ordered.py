@@ -14,7 +14,7 @@ H100), so the GPU schedule runs the parallel variant named beside each, in the t
 - :func:`sum_in_order`: a list of partial sums added in order (the viscous CG's dots; GPU: a
   :class:`~gasp_taichi_mpm.schedule.primitives.SliceSums` tree, :mod:`gasp_taichi_mpm.viscosity`).
 
-``tests/test_taichi_schedule.py`` checks that no other module of taichi_mpm holds such a loop (by the source's syntax
+``plugins/taichi_mpm/tests/test_taichi_schedule.py`` checks that no other module of taichi_mpm holds such a loop (by the source's syntax
 tree) and that no GPU-schedule substep compiles one (by a spy on ``ti.loop_config``).
 Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields it reads.
 """
