@@ -78,6 +78,15 @@ def coulomb_figure(c: np.ndarray, theta: float, mu: float, fps: float, slide_fro
     return 1000.0 * float(np.linalg.norm(c[-1] - c[settle]))
 
 
+def landing_end(c: np.ndarray, fps: float, settle: int, v_stop: float = 1e-3) -> int | None:
+    """The first frame from ``settle`` on after which the centroids ``c`` (frames + 1, 3; m) move slower than
+    ``v_stop`` m/s over a frame: where a block released unstressed on a slope has finished its landing (it sags into
+    its own weight, and the tangential speed gained while its base's normal force builds is taken off by friction at
+    ``g (mu cos - sin)``, longer as ``tan / mu`` nears 1); None where it never slows so far."""
+    v = np.linalg.norm(np.diff(c, axis=0), axis=1) * fps
+    return next((f for f in range(settle, len(v)) if v[f] < v_stop), None)
+
+
 def rest_brake(c: np.ndarray, fps: float, v_rest: float = 0.1, horizontal: bool = True) -> np.ndarray:
     """The centroids ``c`` (frames, 3) of an engine that holds a body still whenever its speed after a frame (its
     horizontal speed, or its whole speed) is under ``v_rest`` m/s: a speed threshold where Coulomb's force balance
