@@ -161,7 +161,7 @@ def test_a_jelly_cube_sticks_on_the_grid_contact(engine, n_grid):
 
 @pytest.mark.slow
 @pytest.mark.xfail(strict=True, reason="round 78: on the particle contact the undamped jelly cube at 30 degrees, mu 0.6 "
-                                       "rocks on the contact's penalty bed (its height 0.1-0.2 mm peak to peak, against "
+                                       "rocks (its height 0.1-0.2 mm peak to peak, against "
                                        "0.001 mm on the grid contact) and walks: at n_grid 32 it is still faster than "
                                        "1 mm/s at 0.5 s on both engines (no landing end), and from 0.5 to 1.5 s it moves "
                                        "2.9 mm; 1.8 mm after its landing at n_grid 24, 3.4 at 48 (docs/contact.md "
