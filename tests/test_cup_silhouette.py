@@ -10,8 +10,9 @@ The footprint of the fill (discs of 0.75 spacing, the measure before round 31) i
 7-19 % larger. Then the broken cup (4.43 m/s, n_grid 80, 4 frames): each piece of 5 % of the mass or more, rendered
 alone with its crack faces, drawn as ``gasp simulate`` draws them (kept to their side only across a gap,
 ``gasp_core.run.sides``), has under 2 % of its silhouette below alpha 0.9, and over 2 % without them (the catch: a
-piece whose crack faces are removed); with the pull rule (kept to their side where the fragments touch too) a piece
-is over 2 % (the catch of the gap rule). A measure without the pieces' rigid fit reads 63 % on the largest piece (run
+piece whose crack faces are removed). Until round 79 the pull rule (kept to their side where the fragments touch too)
+was a second catch; the cup's pieces no longer touch at its last frame, so the two rules draw them alike, and that
+catch is tests/test_sides.py's on touching pieces. A measure without the pieces' rigid fit reads 63 % on the largest piece (run
 by hand).
 """
 from __future__ import annotations
@@ -138,7 +139,7 @@ def test_the_cups_pieces_close_from_their_crack_side(tmp_path, engine):
     for r in rows:
         assert r["geo_fill"] < MARK, f"piece {r['piece']}: {100 * r['geo_fill']:.2f} % below alpha 0.9"
         assert r["geo_without"] > MARK                               # the catch: no crack faces
-    # the catch of the gap rule: the pull rule trims the faces and Gaussians where two fragments touch too
-    old = cf.measure_pieces(parts_at(prep, x, tracker, "pull"), x, np.zeros(len(x)), render, faces="fill",
-                            geometry=geo)
-    assert max(r["geo_fill"] for r in old) > MARK, [round(100 * r["geo_fill"], 2) for r in old]
+    # Round 79: the second catch, the pull rule (which trims faces and Gaussians where two fragments touch too),
+    # no longer applies here: at the last frame the cup's pieces of 5 % or more lie 28-227 mm apart (3.7-30 dx,
+    # taichi_mpm), none touching, and both rules draw them alike (0.111, 0.226, 0.593 % below alpha 0.9 each). The
+    # gap rule against the pull rule on touching pieces is checked by tests/test_sides.py.
