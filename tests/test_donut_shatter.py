@@ -179,11 +179,12 @@ def test_the_donut_shatters_on_the_guitar(tmp_path):
 @pytest.mark.parametrize("dot", [True, False])
 def test_the_skin_of_crumbled_material_leaves_no_speck(tmp_path, monkeypatch, dot):
     """Frames 0-5 on taichi_mpm: no frame over ``SPECKS`` with the skin of crumbled material drawn as a dot at its
-    host (``gasp_core.run.apart.CRUMBLED_DOT``); the catch (``dot`` False, the rule before): frames 4 and 5 fail."""
+    host (``gasp_core.run.apart.CRUMBLED_DOT``); the catch (``dot`` False, the rule before): frames from 4 on fail
+    (round 79: frames 3, 4 and 5, with 117, 65 and 60 specks; frames 4 and 5 when it was written)."""
     needs_package("gasp_taichi_mpm")
     from gasp_core.run import apart
     monkeypatch.setattr(apart, "CRUMBLED_DOT", dot)
     simulate_scene(load_scene(SCENE), tmp_path / "out", n_frames=SPECK_FRAMES, engine="taichi_mpm", quiet=True)
     run = json.loads((tmp_path / "out" / "run.json").read_text())
     bad = check_specks(run, run["objects"][0]["n_gaussians"])
-    assert bad == ([] if dot else [4, 5]), [(r["frame"], r["specks"]) for r in run["frames"]]
+    assert (bad == []) if dot else ({4, 5} <= set(bad)), [(r["frame"], r["specks"]) for r in run["frames"]]

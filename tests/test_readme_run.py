@@ -193,10 +193,24 @@ def test_every_readme_line_is_run_or_says_why():
     assert len(STEPS) >= 18, STEPS
 
 
+#: The quick start's line: the lines after it that read its ``out/donut`` need it run first in their copy.
+QUICK_START = "gasp simulate examples/donut_jelly.toml -o out/donut"
+
+
+def reads_quick_start(step: str) -> bool:
+    """Whether ``step`` reads the quick start's ``out/donut`` (``--resume`` of it, render, view, export)."""
+    return step != QUICK_START and re.search(r"out/donut(\s|$)", step) is not None
+
+
 def run_step(step: str, copy, frames):
     key, (check, package) = check_for(step)
     if package:
         needs_package(package)
+    if reads_quick_start(step) and not (copy / "out/donut/run.json").is_file():
+        # round 79: a tier run alone (the slow tier holds the cut --resume line, the default tier the quick start)
+        # found no out/donut; the README's order is kept by running the quick start first, as a user would have
+        first = rl.run_line(rl.cut_frames(QUICK_START, frames), copy)
+        assert first.returncode == 0, f"{QUICK_START}: exit {first.returncode}: {first.stderr[-2000:]}"
     before = set(rl.stray_files(copy))
     if key in SERVERS and "--export" not in step:
         res = rl.serve_and_stop(step, copy, lambda url: (http_status(url), http_status(url.split('?')[0])))
