@@ -182,6 +182,11 @@ def test_a_jelly_cube_sticks_on_the_particle_contact(engine):
 RING_DAMPING = 30.0
 
 
+def _damped(s):
+    """The cube's jelly with :data:`RING_DAMPING`."""
+    s.materials = [dataclasses.replace(s.materials[0], viscosity=RING_DAMPING)]
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("n_grid", (24, 48))
 @pytest.mark.parametrize("engine", ENGINES)
@@ -190,10 +195,8 @@ def test_a_damped_jelly_cube_sticks_on_the_particle_contact(engine, n_grid):
     0.7: under 1 mm in 1 s after its landing (round 79: 0.000-0.083 mm over n_grid 24-64, warp_mpm; taichi_mpm the
     same at 48). What the undamped cube lacks is the loss, not the contact's Coulomb law; its catch is the friction
     halved (:func:`test_the_damped_cube_check_catches_a_cube_that_never_sticks`)."""
-    def damp(s):
-        s.materials = [dataclasses.replace(s.materials[0], viscosity=RING_DAMPING)]
     problems = [f"mu {mu}: {p}" for mu in (0.6, 0.7)
-                if (p := _cube_problem(engine, 30, mu, "particle", n_grid, spoil=damp))]
+                if (p := _cube_problem(engine, 30, mu, "particle", n_grid, spoil=_damped))]
     assert not problems, problems
 
 
@@ -202,7 +205,7 @@ def test_a_damped_jelly_cube_sticks_on_the_particle_contact(engine, n_grid):
 def test_the_damped_cube_check_catches_a_cube_that_never_sticks(engine):
     """The damped cube with its friction halved (mu 0.3 at 30 degrees) slides on and fails the stick."""
     def spoil(s):
-        s.materials = [dataclasses.replace(s.materials[0], viscosity=RING_DAMPING)]
+        _damped(s)
         _friction(factor=0.5)(s)
     assert _cube_problem(engine, 30, 0.6, "particle", N_GRID, spoil=spoil) is not None
 

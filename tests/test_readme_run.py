@@ -144,10 +144,14 @@ def http_status(url):
         return e.code
 
 
+#: The quick start's line: the lines after it that read its ``out/donut`` need it run first in their copy.
+QUICK_START = "gasp simulate examples/donut_jelly.toml -o out/donut"
+
+
 #: What each line must show beyond exit code 0 (keyed by a piece of the step), and the package it needs.
 CHECKS = {
     "gasp simulate examples/donut_jelly.toml -o out/donut --resume": (check_resume, None),
-    "gasp simulate examples/donut_jelly.toml -o out/donut": (check_quick_start, "gasp_taichi_mpm"),
+    QUICK_START: (check_quick_start, "gasp_taichi_mpm"),
     "gasp info examples/data/donut_v3dg.ply --rho 300": (check_info, None),
     "--engine warp_mpm -o out/donut_warp": (exists("out/donut_warp/run.json"), "gasp_warp_mpm"),
     "guitar_sand.toml -o out/guitar": (exists("out/guitar/run.json"), None),
@@ -191,10 +195,6 @@ def test_every_readme_line_is_run_or_says_why():
         for s in ln.steps:
             assert rl.why_not_run(s) or check_for(s), s
     assert len(STEPS) >= 18, STEPS
-
-
-#: The quick start's line: the lines after it that read its ``out/donut`` need it run first in their copy.
-QUICK_START = "gasp simulate examples/donut_jelly.toml -o out/donut"
 
 
 def reads_quick_start(step: str) -> bool:

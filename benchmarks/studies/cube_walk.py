@@ -16,9 +16,9 @@ the frames), the cube's axial ring whose normal-force swing the walk rides (docs
 import argparse
 import dataclasses
 import sys
+from pathlib import Path
 
 import numpy as np
-from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tests"))
 from slopes import centroids, landing_end  # noqa: E402
