@@ -61,7 +61,8 @@ class DamageAlone(PieceTracker):
 def test_an_intact_bar_is_one_piece_of_its_whole_mass():
     x, m, v = bar()
     row, changed = PieceTracker(x, np.zeros(len(x), int), m, v).row(x, np.zeros(len(x)))
-    assert row == {"pieces": 1, "piece_mass": [float(len(x))], "debris": 0, "debris_mass": 0.0} and changed
+    assert row == {"pieces": 1, "piece_mass": [float(len(x))], "debris": 0, "debris_mass": 0.0, "broken_mass": 0.0,
+                   "cut_links": 0} and changed
 
 
 def test_a_broken_layer_parts_the_bar_once_it_has_opened_by_the_gap():
@@ -77,6 +78,26 @@ def test_a_broken_layer_parts_the_bar_once_it_has_opened_by_the_gap():
     assert row["piece_mass"] == [12 * 16.0, 8 * 16.0]          # layers 8..19; 0..6 and the broken layer 7
     elastic = PieceTracker(x, np.zeros(len(x), int), m, v, gap=2 * H)
     assert elastic.row(pulled(x, right, 5 * H), np.zeros(len(x)))[0]["pieces"] == 1   # no point broken: stretched
+
+
+def test_the_row_says_how_much_is_broken_and_how_many_links_have_opened():
+    """Round 80: ``broken_mass`` is the mass at or above ``BROKEN`` and ``cut_links`` the links cut (opened past the
+    gap with a point broken), so a crack that has not parted the body is in the row: the bar's broken layer 7 (16
+    points of 1 kg) counts 16 kg from the first frame it is broken, and its links across open only once pulled past
+    the gap. A tracker that reads the damage alone (every link of a broken point cut) is caught: it cuts them at
+    once."""
+    x, m, v = bar()
+    d = np.where(np.isclose(x[:, 0], 7 * H), 1.0, 0.0)
+    right = x[:, 0] > 7.5 * H
+    rows = {}
+    for cls in (PieceTracker, DamageAlone):
+        t = cls(x, np.zeros(len(x), int), m, v, gap=2 * H)
+        rows[cls] = [t.row(pulled(x, right, by), d)[0] for by in (0.0, 1.0 * H, 2.3 * H)]
+    got = [(r["broken_mass"], r["cut_links"] > 0, r["pieces"]) for r in rows[PieceTracker]]
+    assert got == [(16.0, False, 1), (16.0, False, 1), (16.0, True, 2)], got
+    t = PieceTracker(x, np.zeros(len(x), int), m, v, gap=2 * H)
+    assert t.row(pulled(x, right, 5 * H), None)[0]["broken_mass"] == 0.0      # no damage read: nothing broken
+    assert rows[DamageAlone][0]["cut_links"] > 0                              # cut before any opened: caught
 
 
 def test_a_bar_cut_in_two_stays_two_when_pushed_back_and_a_forgetful_tracker_is_caught():

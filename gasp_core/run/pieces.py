@@ -206,17 +206,23 @@ class PieceTracker:
         return counted
 
     def row(self, x: np.ndarray, damage: np.ndarray | None) -> tuple[dict, bool]:
-        """``({"pieces", "piece_mass", "debris", "debris_mass"}, changed)`` of the frame at positions ``x`` (module
-        notes; masses in kg, the pieces' largest first); ``changed``: the pieces or the crumbs differ from the last
-        call's in number (always True on the first)."""
+        """``({"pieces", "piece_mass", "debris", "debris_mass", "broken_mass", "cut_links"}, changed)`` of the frame
+        at positions ``x`` (module notes; masses in kg, the pieces' largest first); ``changed``: the pieces or the
+        crumbs differ from the last call's in number (always True on the first).
+
+        Round 80: ``broken_mass`` (kg) is the mass of the points at or above :data:`BROKEN` (0 with ``damage`` None)
+        and ``cut_links`` the rest links cut so far (opened past their gap with a point broken: the open cracks), so
+        a body that cracks without coming apart says so (one piece, ``cut_links`` > 0)."""
         lab = self.labels(x, damage)
         self.last_labels = lab
         masses = np.bincount(lab, weights=self.mass)
         piece = self._counted
         count = (int(piece.sum()), int((~piece).sum()))
         changed, self.count = count != self.count, count
+        broken = 0.0 if damage is None else float(self.mass[np.asarray(damage) >= BROKEN].sum())
         return {"pieces": count[0], "piece_mass": sorted((float(m) for m in masses[piece]), reverse=True),
-                "debris": count[1], "debris_mass": float(masses[~piece].sum())}, changed
+                "debris": count[1], "debris_mass": float(masses[~piece].sum()), "broken_mass": broken,
+                "cut_links": int(self.cut.sum())}, changed
 
     @property
     def pieces(self) -> np.ndarray | None:

@@ -13,8 +13,9 @@ A run says six kinds of thing, each an event (a dict with ``"event"`` naming its
     ``message``: one line in words.
 ``pieces``
     ``frame``, ``pieces`` (the count, crumbs apart), ``piece_mass`` (kg, largest first), ``debris`` (the crumbs'
-    count) and ``debris_mass`` (kg) of a scene with a ``brittle`` body, at frame 0 and whenever the count of pieces
-    or of crumbs changes (:mod:`gasp_core.run.pieces`).
+    count), ``debris_mass`` (kg), ``broken_mass`` (kg at or above damage 0.9) and ``cut_links`` (the rest links
+    opened past their gap with a point broken) of a scene with a ``brittle`` body, at frame 0 and whenever the count
+    of pieces or of crumbs changes (:mod:`gasp_core.run.pieces`).
 ``result``
     ``message`` (the line the console prints) and the record's fields (``gasp simulate``: ``run_json``,
     ``output``, ...).
