@@ -271,8 +271,7 @@ def tracker_for(setup) -> PieceTracker | None:
 
 def frame_row(tracker: PieceTracker, reporter, frame: int, x: np.ndarray, damage: np.ndarray | None) -> dict:
     """The frame's ``run.json`` figures (:meth:`PieceTracker.row`); on a change of the pieces' or the crumbs' count
-    (and at frame 0), the event ``{"event": "pieces", "frame", "pieces", "piece_mass", "debris", "debris_mass"}``
-    through ``reporter``
+    (and at frame 0), the event ``{"event": "pieces", "frame", **row}`` through ``reporter``
     (:class:`gasp_core.run.report.Reporter`)."""
     row, changed = tracker.row(x, damage)
     if changed:
