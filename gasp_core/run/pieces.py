@@ -210,9 +210,11 @@ class PieceTracker:
         at positions ``x`` (module notes; masses in kg, the pieces' largest first); ``changed``: the pieces or the
         crumbs differ from the last call's in number (always True on the first).
 
-        Round 80: ``broken_mass`` (kg) is the mass of the points at or above :data:`BROKEN` (0 with ``damage`` None)
-        and ``cut_links`` the rest links cut so far (opened past their gap with a point broken: the open cracks), so
-        a body that cracks without coming apart says so (one piece, ``cut_links`` > 0)."""
+        Round 80: ``broken_mass`` (kg) is the mass of the points at or above :data:`BROKEN` and ``cut_links`` the rest
+        links cut so far (opened past their gap with a point broken: the open cracks), so a body that cracks without
+        coming apart says so (one piece, ``cut_links`` > 0). With ``damage`` None (frame 0; a stiff body's rigid
+        fragments, ``gasp_core.run.fragment_run``, whose pieces are the fragments) ``broken_mass`` is 0, and
+        ``cut_links`` counts the links between the fragments (:meth:`split_bodies`)."""
         lab = self.labels(x, damage)
         self.last_labels = lab
         masses = np.bincount(lab, weights=self.mass)
