@@ -201,3 +201,21 @@ def test_the_frames_only_count_parts_blocks_apart_by_more_than_the_gap_and_count
     kept, alone = FramePieces(x, m, 1.5 * H, 2 * H, remember=True), FramePieces(x, m, 1.5 * H, 2 * H)
     assert [kept.count(y) for y in (x, moved, x)] == [1, 64, 64]   # round 77: apart once, apart for good
     assert [alone.count(y) for y in (x, moved, x)] == [1, 64, 1]   # each frame alone: together again
+
+
+def test_the_console_names_the_last_frames_pieces_and_says_a_whole_body_cracked():
+    """``gasp simulate``'s result line (round 80, ``pieces.summary_clause``): nothing without a brittle body; one
+    piece with links cut reads as cracked, with its broken share; several pieces and crumbs are counted."""
+    from gasp_core.run.pieces import summary_clause
+    x, m, v = bar()
+    d = np.where(np.isclose(x[:, 0], 7 * H), 1.0, 0.0)
+    right = x[:, 0] > 7.5 * H
+    t = PieceTracker(x, np.zeros(len(x), int), m, v, gap=2 * H)
+    rows = [t.row(x, None)[0], t.row(pulled(x, right, 1.0 * H), d)[0]]
+    assert summary_clause([{"frame": 0, "wall_s": 1.0}]) == ""
+    assert summary_clause(rows) == "; last frame: 1 piece (5.0 % of the brittle mass broken), 0 crumbs"
+    rows.append(t.row(pulled(x, right, 2.1 * H), d)[0])                   # the face links open first: cracked
+    assert rows[-1]["pieces"] == 1 and rows[-1]["cut_links"] > 0, rows[-1]
+    assert summary_clause(rows) == "; last frame: 1 piece, cracked (5.0 % of the brittle mass broken), 0 crumbs"
+    rows.append(t.row(pulled(x, right, 3 * H), d)[0])
+    assert summary_clause(rows) == "; last frame: 2 pieces (5.0 % of the brittle mass broken), 0 crumbs"

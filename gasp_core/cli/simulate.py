@@ -52,6 +52,7 @@ def request_from(args) -> SimulateRequest:
 
 def cmd_simulate(args) -> int:
     """Run ``args.scene`` (``args.reporter`` receives its events) and report the result; exit status 0."""
+    from gasp_core.run.pieces import summary_clause
     from gasp_core.run.pipeline import simulate_scene
     from gasp_core.scene.spec import load_scene
     request = request_from(args)   # its options checked before the scene is loaded
@@ -71,7 +72,7 @@ def cmd_simulate(args) -> int:
              if s["engine_stats"].get("contact") == "mixed" else "")
     reporter.result(f"wrote {fps + 1} frames (frame 0 = the input) x {len(s['objects'])} object(s) to {res.outdir} "
                     f"({s['n_points']} simulated points, {'-' if substeps is None else substeps} substeps/frame, "
-                    f"{per_frame:.3f} s/frame{mixed})",
+                    f"{per_frame:.3f} s/frame{mixed}){summary_clause(s['frames'])}",
                     output=str(res.outdir.resolve()), run_json=str(res.run_json.resolve()), n_frames=fps + 1, n_objects=len(s["objects"]),
                     n_points=s["n_points"], n_substeps=substeps, sim_s_per_frame=per_frame)
     return 0

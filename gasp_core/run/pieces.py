@@ -281,6 +281,23 @@ def frame_row(tracker: PieceTracker, reporter, frame: int, x: np.ndarray, damage
     return row
 
 
+def summary_clause(rows: list[dict]) -> str:
+    """The console's words on the pieces at a run's last frame (``gasp simulate``'s result line), from its
+    ``run.json`` frame rows (each a dict; only rows with ``pieces`` count): ``""`` for a run with no brittle body,
+    else e.g. ``"; last frame: 1 piece, cracked (23.6 % of the brittle mass broken), 0 crumbs"``."""
+    rows = [r for r in rows if "pieces" in r]
+    if not rows:
+        return ""
+    first, last = rows[0], rows[-1]
+    total = sum(first["piece_mass"]) + first["debris_mass"]
+    n = last["pieces"]
+    broken = last.get("broken_mass", 0.0) / total if total > 0 else 0.0
+    state = (f", cracked ({100 * broken:.1f} % of the brittle mass broken)" if n == 1 and last.get("cut_links", 0)
+             else f" ({100 * broken:.1f} % of the brittle mass broken)" if broken > 0 else "")
+    return (f"; last frame: {n} piece{'s' if n != 1 else ''}{state}, {last['debris']} "
+            f"crumb{'s' if last['debris'] != 1 else ''}")
+
+
 #: A frame's piece file in an object's folder (module notes).
 PIECES_FILE = "pieces_{:04d}.npy"
 
