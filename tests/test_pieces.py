@@ -33,6 +33,13 @@ def pulled(x, right, by):
     return x + np.where(right, by, 0.0)[:, None] * [1, 0, 0]
 
 
+def broken_bar():
+    """:func:`bar` with its layer 7 of 0..19 broken (``d`` 1 there, 0 elsewhere) and ``right``, the points past it:
+    ``(x, m, v, d, right)``."""
+    x, m, v = bar()
+    return x, m, v, np.where(np.isclose(x[:, 0], 7 * H), 1.0, 0.0), x[:, 0] > 7.5 * H
+
+
 class Forgets(PieceTracker):
     """A broken tracker: it forgets its cut links every frame (the geometry of the frame alone)."""
 
@@ -66,10 +73,8 @@ def test_an_intact_bar_is_one_piece_of_its_whole_mass():
 
 
 def test_a_broken_layer_parts_the_bar_once_it_has_opened_by_the_gap():
-    x, m, v = bar()
+    x, m, v, d, right = broken_bar()
     t = PieceTracker(x, np.zeros(len(x), int), m, v, gap=2 * H)
-    d = np.where(np.isclose(x[:, 0], 7 * H), 1.0, 0.0)          # layer 7 of 0..19
-    right = x[:, 0] > 7.5 * H
     # a face link across the layer opens by the pull, an edge link by less (sqrt((1 + p)^2 + 1) - sqrt 2 spacings):
     # the bar parts once both have opened past the gap (a pull of 2.27 h)
     for by, pieces in ((0.0, 1), (1.9 * H, 1), (2.3 * H, 2), (5 * H, 2)):
@@ -86,9 +91,7 @@ def test_the_row_says_how_much_is_broken_and_how_many_links_have_opened():
     points of 1 kg) counts 16 kg from the first frame it is broken, and its links across open only once pulled past
     the gap. A tracker that reads the damage alone (every link of a broken point cut) is caught: it cuts them at
     once."""
-    x, m, v = bar()
-    d = np.where(np.isclose(x[:, 0], 7 * H), 1.0, 0.0)
-    right = x[:, 0] > 7.5 * H
+    x, m, v, d, right = broken_bar()
     rows = {}
     for cls in (PieceTracker, DamageAlone):
         t = cls(x, np.zeros(len(x), int), m, v, gap=2 * H)
@@ -101,9 +104,7 @@ def test_the_row_says_how_much_is_broken_and_how_many_links_have_opened():
 
 
 def test_a_bar_cut_in_two_stays_two_when_pushed_back_and_a_forgetful_tracker_is_caught():
-    x, m, v = bar()
-    d = np.where(np.isclose(x[:, 0], 7 * H), 1.0, 0.0)
-    right = x[:, 0] > 7.5 * H
+    x, m, v, d, right = broken_bar()
     counts = {}
     for cls in (PieceTracker, Forgets):
         t = cls(x, np.zeros(len(x), int), m, v, gap=2 * H)
@@ -207,9 +208,7 @@ def test_the_console_names_the_last_frames_pieces_and_says_a_whole_body_cracked(
     """``gasp simulate``'s result line (round 80, ``pieces.summary_clause``): nothing without a brittle body; one
     piece with links cut reads as cracked, with its broken share; several pieces and crumbs are counted."""
     from gasp_core.run.pieces import summary_clause
-    x, m, v = bar()
-    d = np.where(np.isclose(x[:, 0], 7 * H), 1.0, 0.0)
-    right = x[:, 0] > 7.5 * H
+    x, m, v, d, right = broken_bar()
     t = PieceTracker(x, np.zeros(len(x), int), m, v, gap=2 * H)
     rows = [t.row(x, None)[0], t.row(pulled(x, right, 1.0 * H), d)[0]]
     assert summary_clause([{"frame": 0, "wall_s": 1.0}]) == ""
