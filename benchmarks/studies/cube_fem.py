@@ -9,7 +9,7 @@ Belytschko, Liu & Moran, *Nonlinear Finite Elements*, 2000, sec. 10.4): the norm
 plane, never pulling, and a tangential one within ``mu`` times it. A stiffness-proportional (Rayleigh) damping
 ``beta`` (s) adds ``beta C : sym(grad v)``: a damping ratio ``beta omega / 2``, large on the element-scale modes
 (without it the base nodes chatter on and off the plane and slip 1 mm even at ``mu`` 10) and small on the cube's
-25 Hz ring (0.8 % at ``beta`` 1e-4; the MPM engines' own at n_grid 32 is about 1.8 %: round 79's ring at ``mu`` 10).
+25 Hz ring (0.8 % at ``beta`` 1e-4; the MPM engines' own at n_grid 32 is about 2 %, from round 79's ring at ``mu`` 10).
 
     python benchmarks/studies/cube_fem.py "n=6,mu=0.6,beta=1e-4" "n=10,mu=0.6,beta=1e-4"
     python benchmarks/studies/cube_fem.py "n=6,mu=10,beta=1e-4" "n=6,mu=0.6,beta=4e-4"
