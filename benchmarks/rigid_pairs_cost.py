@@ -10,7 +10,7 @@ taichi_mpm Taichi's kernel profiler. The physics' figures (each block's centre a
 largest move of a centre over the last half of the run) say whether two builds give the same run.
 
     python benchmarks/rigid_pairs_cost.py --engine warp_mpm [--n-grid 48] [--frames 12] [--cols 4] [--layers 3]
-        [--off] [--profile] [--tag NAME]
+        [--off] [--profile] [--tag NAME] [--device cuda] [--side 0.02]
 
 ``--off``: ``colouring.RIGID_PAIRS`` False (the rule before round 62: one field for all). Results:
 ``benchmarks/results/rigid_pairs_cost_<engine>_<n_grid>_<tag>.json`` and ``.md``.
@@ -93,8 +93,10 @@ def run_cup(speed: float, frames: int, off: bool, profile: bool) -> dict:
             "x_hash": hashlib.sha256(np.round(np.asarray(xs[-1], float), 9).tobytes()).hexdigest()[:8]}
 
 
-def run(engine: str, n_grid: int, frames: int, cols: int, layers: int, off: bool, profile: bool) -> dict:
-    """The figures of one run (module notes)."""
+def run(engine: str, n_grid: int, frames: int, cols: int, layers: int, off: bool, profile: bool,
+        device: str = "cpu", side: float = 0.04) -> dict:
+    """The figures of one run (module notes); ``device`` the engine option (``"cuda"`` on a lent GPU), ``side`` the
+    blocks' width (m; 0.02 at n_grid 96 fits 10 x 10 columns in the 0.48 m domain)."""
     from gasp_core.mpm import colouring
     from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import get_engine
@@ -104,7 +106,8 @@ def run(engine: str, n_grid: int, frames: int, cols: int, layers: int, off: bool
         from gasp_taichi_mpm import engine as eng_mod
         init = eng_mod._quiet_init
         eng_mod._quiet_init = lambda t, **kw: init(t, kernel_profiler=True, **kw)
-    s = heap_setup(n_grid, cols, layers)
+    s = heap_setup(n_grid, cols, layers, side=side)
+    s.options = {**(s.options or {}), "device": device}
     t0 = time.perf_counter()
     eng = build_engine(get_engine(engine), s)
     build = time.perf_counter() - t0
@@ -146,7 +149,8 @@ def run(engine: str, n_grid: int, frames: int, cols: int, layers: int, off: bool
     eng.close()
     C = np.array(C)
     half = C[len(C) // 2:]
-    return {"engine": engine, "n_grid": n_grid, "frames": frames, "bodies": nb, "points": int(len(s.x)),
+    return {"engine": engine, "device": device, "n_grid": n_grid, "frames": frames, "bodies": nb,
+            "points": int(len(s.x)),
             "rigid_pairs": not off, "substeps": int(stats.get("n_substeps", 0) or getattr(s, "n_substeps", 0) or 0),
             "build_s": build, "first_frame_s": first, "wall_s": wall, "per_frame_s": wall / frames,
             "recolour_s": host[0], "kernels_s": dict(sorted(table.items(), key=lambda kv: -kv[1])),
@@ -179,7 +183,10 @@ def main() -> None:
     ap.add_argument("--off", action="store_true")
     ap.add_argument("--profile", action="store_true")
     ap.add_argument("--tag", default="")
+    ap.add_argument("--device", default="cpu", help="the engine option device (cuda on a lent GPU)")
+    ap.add_argument("--side", type=float, default=0.04, help="the blocks' width, m")
     ap.add_argument("--no-write", action="store_true")
+    ap.add_argument("--json", type=Path, default=None, help="also append the run's figures as one JSON line here")
     ap.add_argument("--cup", type=float, default=None, help="the cup at this speed (m/s) instead of the heap")
     a = ap.parse_args()
     if a.cup is not None:
@@ -189,9 +196,12 @@ def main() -> None:
             stem = ROOT / "benchmarks" / "results" / f"rigid_pairs_cost_cup_{a.cup:g}_{a.tag or 'run'}"
             stem.with_suffix(".json").write_text(json.dumps(r, indent=1))
         return
-    r = run(a.engine, a.n_grid, a.frames, a.cols, a.layers, a.off, a.profile)
+    r = run(a.engine, a.n_grid, a.frames, a.cols, a.layers, a.off, a.profile, a.device, a.side)
     md = markdown(r)
     print(md)
+    if a.json is not None:
+        with open(a.json, "a") as f:
+            f.write(json.dumps({"tag": a.tag, **r}) + "\n")
     if not a.no_write:
         stem = ROOT / "benchmarks" / "results" / f"rigid_pairs_cost_{a.engine}_{a.n_grid}_{a.tag or 'run'}"
         stem.with_suffix(".json").write_text(json.dumps(r, indent=1))

@@ -33,6 +33,14 @@ kernel lists each touching pair the first time it adds to it (an atomic counter)
 height, then slot: the order of round 62's scan) and clears only those, never the ``n_bodies^2`` table
 (``docs/rigid.md`` "Round 63: the cost of rigid pairs").
 
+**Islands on the GPU schedule** (round 81, :data:`ISLANDS`). Measured on an H200, the one-thread solve was 34-75 %
+of the CUDA kernel time of a heap of 12-108 rigid blocks, 10x its time on one CPU core (``docs/performance.md``
+"Round 81"). The GPU schedule therefore splits the listed pairs into islands (the bodies joined by touching pairs,
+union-find, :func:`islands`) and sweeps each island on its own thread, its pairs in the global order. No two islands
+share a body and a pair's update touches only its two bodies, so every body sees the same updates in the same order:
+the same bits as the one-thread solve. The order's sort is a rank per pair (one thread a pair). A heap whose bodies all
+touch is one island and gains nothing. The CPU schedule keeps the one-thread solve.
+
 **Left out.** Bodies that an odd cycle puts in one field (three bodies touching each other) share it where they
 touch (the engines warn, ``shared_fields``); the ground is not in the sweep (its contact runs before, as for one
 body); no warm start across substeps (each substep starts its pairs at zero; the bottom-up order carries the weight
@@ -49,6 +57,9 @@ SWEEPS = 8
 #: A node serves a rigid body of its field when it lies within this many cells of the body's box (in the body's frame,
 #: Chebyshev): the B-spline's reach, 1.5 cells.
 NODE_PAD = 1.5
+#: Round 81: the GPU schedules sweep each island of touching rigid bodies on its own thread (the same bits as one
+#: thread over all the pairs); False: the one-thread solve on both schedules. Read when an engine is built.
+ISLANDS = True
 
 
 def pair_frictions(setup) -> np.ndarray:
@@ -239,3 +250,47 @@ def solve_pairs(bodies, contacts, gravity, sweeps: int = SWEEPS):
             _pair_update(state[a], state[b], np.asarray(x_c, float), np.asarray(n, float), float(mu), lam[k],
                          *contacts[k][5:])
     return [(s[0], s[1]) for s in state], [float(p) for p, _ in lam]
+
+
+def islands(pairs, n_bodies: int) -> list[list[int]]:
+    """The islands of ordered touching pairs (round 81, the GPU schedules' ``rigid_pairs_gpu``, module notes).
+
+    Parameters
+    ----------
+    pairs : sequence of (int, int)
+        The touching pairs' two bodies ``(a, b)``, in the sweep's order (bottom up); each body in ``[0, n_bodies)``.
+    n_bodies : int
+
+    Returns
+    -------
+    list of list of int
+        Per island (the bodies joined by the pairs, union-find with the smaller root kept), the positions in ``pairs``
+        of its pairs in their order; the islands numbered by their first pair. No two islands share a body, so
+        sweeping each alone in this order updates every body as the sweep over all the pairs does.
+
+    Raises
+    ------
+    ValueError
+        A body outside ``[0, n_bodies)``.
+    """
+    root = list(range(int(n_bodies)))
+
+    def find(x: int) -> int:
+        while root[x] != x:
+            root[x] = root[root[x]]
+            x = root[x]
+        return x
+    for a, b in pairs:
+        if not (0 <= a < n_bodies and 0 <= b < n_bodies):
+            raise ValueError(f"pair ({a}, {b}): bodies must lie in [0, {n_bodies})")
+        ra, rb = find(a), find(b)
+        if ra != rb:
+            root[max(ra, rb)] = min(ra, rb)
+    index: dict[int, int] = {}
+    out: list[list[int]] = []
+    for q, (a, _b) in enumerate(pairs):
+        i = index.setdefault(find(a), len(out))
+        if i == len(out):
+            out.append([])
+        out[i].append(q)
+    return out

@@ -17,7 +17,7 @@ class RigidPairs:
         ``pair_lam`` (4 per slot: P and J), ``pair_order``, ``pair_mu`` per slot, each body's box ``pair_box``
         (lower, upper), ``pair_V0`` and round 63's list of the touching slots (``pair_slots``, their count ``pair_n``,
         ``pair_seen`` 1 per slot listed); the sweeps (``rigid_pairs.SWEEPS``) read now."""
-        from gasp_core.mpm.rigid_pairs import NODE_PAD, SWEEPS
+        from gasp_core.mpm.rigid_pairs import ISLANDS, NODE_PAD, SWEEPS
         self.pair_many = bool(self.fields and pair == 2)
         nb = max(int(self.n_bodies), 1)
         ns = nb * nb if self.pair_many else 1
@@ -31,8 +31,20 @@ class RigidPairs:
         self.pair_n = ti.field(ti.i32, shape=())
         self.pair_seen = ti.field(ti.i32, shape=ns)
         self.pair_sweeps = int(SWEEPS)
+        self.pair_islands = bool(ISLANDS)   # round 81: the GPU schedule's islands (rigid_pairs_gpu)
         self.pair_pad = float(NODE_PAD)
         self.pair_rows = ti.field(ti.i32, shape=2 * ns)   # round 65: each slot's two table rows
+        # round 81, the GPU schedule's islands (rigid_pairs_gpu): each listed pair's height, the bodies' union-find
+        # roots, each root's island, each ordered pair's island, the islands' counts, starts and fill, their pairs
+        self.pair_key = ti.field(ti.f64, shape=ns)
+        self.pair_root = ti.field(ti.i32, shape=nb)
+        self.pair_isl_of = ti.field(ti.i32, shape=nb)
+        self.pair_isl = ti.field(ti.i32, shape=ns)
+        self.pair_isl_count = ti.field(ti.i32, shape=nb + 1)
+        self.pair_isl_start = ti.field(ti.i32, shape=nb + 1)
+        self.pair_isl_fill = ti.field(ti.i32, shape=nb + 1)
+        self.pair_isl_list = ti.field(ti.i32, shape=ns)
+        self.pair_isl_n = ti.field(ti.i32, shape=())
         self.set_support(None)   # round 65's tables: none until set_pairs
 
     def set_pairs(self, boxes, mus, collider=None, support=None) -> None:
@@ -128,6 +140,101 @@ class RigidPairs:
                     self.pair_acc[7 * s + c] = 0.0
                 self.pair_seen[s] = 0
             self.pair_n[None] = 0
+
+    @ti.kernel
+    def rigid_pairs_gpu(self):
+        """:meth:`rigid_pairs` on the GPU schedule (round 81): the same updates in the same order on each body, so
+        the same bits, with the work that grows with the pile spread over threads. Each top-level loop is a task of
+        its own, run in turn:
+
+        1. one thread a listed slot: its table rows, its impulses cleared, its height (``pair_key``);
+        2. one thread a body: ``pair_V0``, and the islands' tables reset;
+        3. one thread a listed slot: its rank by (height, slot) among the listed ones, which is the insertion
+           sort's place (the keys are distinct), so ``pair_order`` is the one-thread kernel's;
+        4. one thread (integer work, O(n_on) but for the roots' walks): the islands, the bodies joined by the
+           touching pairs (union-find, the smaller root kept), numbered by their first pair in ``pair_order``; each
+           island's pairs listed in that order (``pair_isl_list`` from ``pair_isl_start``);
+        5. one thread an island: ``pair_sweeps`` sweeps over its own pairs in order. No two islands share a body,
+           and ``pair_update`` reads and writes only its pair's two bodies and slot, so each body sees the updates of
+           the one-thread kernel in its order (Box2D's and Bullet's islands, there for sleeping);
+        6. one thread a body: the centres' advance; 7. one thread a listed slot: its sums cleared; then ``pair_n``.
+
+        A pile of separate stacks is as many islands as stacks; one heap where every body touches is one island,
+        swept on one thread as before (``docs/performance.md`` "Round 81")."""
+        dt = ti.cast(self.dt[None], ti.f64)
+        half = 0.5 * self.rb_aff[None] * ti.cast(self.dx[None], ti.f64) ** 2   # 0 since round 67 (APIC_SPIN)
+        g = ti.cast(self.gravity[None], ti.f64)
+        nb = self.n_bodies
+        for q in range(self.pair_n[None]):   # 1. each listed slot
+            s = self.pair_slots[q]
+            nn = ti.Vector([self.pair_acc[7 * s + 4], self.pair_acc[7 * s + 5], self.pair_acc[7 * s + 6]])
+            nn = nn / ti.max(nn.norm(), 1.0e-300)
+            self.pair_rows[2 * s] = self.body_row(s // nb, self.rb_R[s // nb], nn)
+            self.pair_rows[2 * s + 1] = self.body_row(s - (s // nb) * nb, self.rb_R[s - (s // nb) * nb], -nn)
+            for c in ti.static(range(4)):
+                self.pair_lam[4 * s + c] = 0.0
+            self.pair_key[q] = self.pair_height(s, g)
+        for b in range(nb):   # 2. each body
+            self.pair_V0[b] = self.rb_V[b]
+            self.pair_root[b] = b
+            self.pair_isl_of[b] = -1
+            self.pair_isl_count[b] = 0
+            self.pair_isl_fill[b] = 0
+        for q in range(self.pair_n[None]):   # 3. the order: each slot's rank by (height, slot)
+            s, h = self.pair_slots[q], self.pair_key[q]
+            r = 0
+            for j in range(self.pair_n[None]):
+                hj, sj = self.pair_key[j], self.pair_slots[j]
+                if hj < h or (hj == h and sj < s):
+                    r += 1
+            self.pair_order[r] = s
+        for _ in range(1):   # 4. the islands (integer work on one thread)
+            n_on = self.pair_n[None]
+            for q in range(n_on):
+                s = self.pair_order[q]
+                ra, rb = self.pair_find(s // nb), self.pair_find(s - (s // nb) * nb)
+                if ra != rb:
+                    self.pair_root[ti.max(ra, rb)] = ti.min(ra, rb)
+            n_isl = 0
+            for q in range(n_on):
+                r = self.pair_find(self.pair_order[q] // nb)
+                if self.pair_isl_of[r] < 0:
+                    self.pair_isl_of[r] = n_isl
+                    n_isl += 1
+                i = self.pair_isl_of[r]
+                self.pair_isl[q] = i
+                self.pair_isl_count[i] += 1
+            start = 0
+            for i in range(n_isl):
+                self.pair_isl_start[i] = start
+                start += self.pair_isl_count[i]
+            self.pair_isl_start[n_isl] = start
+            for q in range(n_on):
+                i = self.pair_isl[q]
+                self.pair_isl_list[self.pair_isl_start[i] + self.pair_isl_fill[i]] = self.pair_order[q]
+                self.pair_isl_fill[i] += 1
+            self.pair_isl_n[None] = n_isl
+        for i in range(self.pair_isl_n[None]):   # 5. each island, swept in order
+            for _sweep in range(self.pair_sweeps):
+                for k in range(self.pair_isl_start[i], self.pair_isl_start[i + 1]):
+                    self.pair_update(self.pair_isl_list[k], nb, half)
+        for b in range(nb):   # 6. the centres follow the new velocities
+            self.rb_c[b] += dt * (self.rb_V[b] - self.pair_V0[b])
+        for q in range(self.pair_n[None]):   # 7. the touching slots back to zero for the next substep
+            s = self.pair_slots[q]
+            for c in ti.static(range(7)):
+                self.pair_acc[7 * s + c] = 0.0
+            self.pair_seen[s] = 0
+        self.pair_n[None] = 0
+
+    @ti.func
+    def pair_find(self, x):
+        """The root of body ``x`` in ``pair_root`` (union-find, the path halved on the way)."""
+        r = x
+        while self.pair_root[r] != r:
+            self.pair_root[r] = self.pair_root[self.pair_root[r]]
+            r = self.pair_root[r]
+        return r
 
     @ti.func
     def pair_height(self, s, g):

@@ -164,6 +164,9 @@ ONE_ITEM = {"rigid_pair": "the contact of one pair of rigid bodies: a dozen floa
             "rigid_pairs": "round 62: the touching pairs of rigid bodies among three or more, SWEEPS (8) x n_on pair "
                            "updates, once a substep; round 63: only the n_on touching slots the node kernel listed "
                            "(their insertion sort and clears), none of the n_bodies^2 table",
+            "rigid_pairs_gpu": "round 81: the GPU schedule's islands of touching rigid bodies, integer work over the "
+                               "n_on listed pairs (union-find, the islands' lists); the sweeps run one thread an "
+                               "island",
             "collider_body": "round 63: the rigid body's V* from its field's sums, one body, once a substep (round 64: "
                              "a parallel loop over the slots, the scene's rigid bodies)",
             "collider_solve": "round 63: the body's 6 x 6 solve with its layer, one body, twice a substep (round 64: "

@@ -345,8 +345,8 @@ class RigidBodies:
                 self.in_a, self.rb_M, self.rb_I0, self.rb_c, self.rb_R, self.rb_V, self.rb_w, dt, dxa,
                 float(self.field_mu), self.pair_acc, *self.rb_tables]))
         elif self.pair == 2:   # round 62: rigid bodies among three or more, their pairs solved together
-            from .rigid_pairs import pairs_launch
-            out.insert(2, pairs_launch(self, Ft))
+            from .rigid_pairs import pairs_launches   # round 81: the islands' launches on the gpu schedule
+            out[2:2] = pairs_launches(self, Ft)
         n_pl = self.planes.shape[0] if self.p_contact.shape[0] == self.n_points else 0
         if n_pl:   # the resting bodies' position-level non-penetration, then their points on the pose again
             from gasp_core.mpm.rigid import RIGID_SLOP

@@ -52,6 +52,9 @@ DIM1_SCALAR = {
                          "updates; round 63: only the n_on touching slots the node kernel listed are visited (an "
                          "insertion sort of n_on, their clears), none of the n_bodies^2 table (rigid_pairs.py; "
                          "taichi_mpm's ONE_ITEM)",
+    "islands": "round 81: the gpu schedule's islands of touching rigid bodies, integer work over the n_on listed "
+               "pairs (union-find, the islands' lists; rigid_pairs.build_rigid_pairs_gpu; the sweeps run one thread "
+               "an island)",
     "c_body": "round 63: the rigid body's V* from its field's sums, one body (rigid_collider.py; round 64: launched "
               "one thread a slot, dim rc_ns, the scene's rigid bodies)",
     "c_solve": "round 63: the body's 6 x 6 solve with its layer (Schur, two 3 x 3 inverses), one body "
@@ -87,6 +90,9 @@ LOOP_BOUNDS = {
                  "node, as node_slot's range(nb))",
     "range(sweeps)": "the pairs' sweeps, rigid_pairs.SWEEPS (8; round 62)",
     "range(n_on)": "the touching pairs, as the node kernel listed them (round 62, 63; rigid_pairs' one thread)",
+    "range(n_isl)": "the islands of touching rigid bodies, at most n_bodies (round 81, rigid_pairs' islands)",
+    "range(isl_start[i], isl_start[i + 1])": "an island's touching pairs (round 81, rigid_pairs' sweep, one thread "
+                                             "an island)",
     "range(SLOTS)": "a ground column's slots (share.SLOTS = 8; touch_share, one thread a column)",
     "range(m)": "the substeps since a passive point's last gather (g2p_passive, one thread a point)",
     "range(blk * BLK, wp.min(blk * BLK + BLK, counts[0]))": _BLOCK,

@@ -30,6 +30,7 @@ TOL_DX = 1e-3
 #: (launched over bodies or supports: one thread in a one-body scene).
 DIM1_ALLOWED = {"step_alpha", "cg_begin", "cg_beta", "fold_final", "tick", "rigid_update", "rigid_lift",
                 "contact_shift", "fix_supports", "fix_clear",
+                "islands",   # round 81: the rigid pairs' islands, integer work over the listed pairs (rigid_pairs.py)
                 "box_reset", "held_box"}   # round 64/65's box: 12 int32 (grid_box.py), in viscous scenes since round 65
 
 
