@@ -86,6 +86,13 @@ class Fields(PairTouch, PairPush, FieldFlip):
         # contact's friction to field B alone (read when the kernels compile)
         self.ground_mirror = bool(core_fields.GROUND_MIRROR)
         self.b_friction = bool(self.fields and core_fields.B_FRICTION)
+        # round 82 (gasp_core.mpm.fields.rigid_a_friction): a rigid field A's mass per node to grid_mf in P2G, the
+        # friction then given to field B alone as in a mixed scene (on the mean velocity: field_rule stays 0)
+        self.rigid_a = bool(self.fields and not self.mixed and setup is not None
+                            and core_fields.rigid_a_friction(setup))
+        if self.rigid_a:
+            self.grid_mf = ti.field(self.real, shape=(ng, ng, ng))
+        self.b_fric_on = bool((self.b_friction and self.mixed) or self.rigid_a)   # friction_base, field_friction
         # round 42: a ground's top layer free in untouched columns, the friction on B's own velocity (touch.py)
         self.field_rule = core_fields.field_rule() if self.fields and self.mixed else 0
 
@@ -123,6 +130,12 @@ class Fields(PairTouch, PairPush, FieldFlip):
                             ti.atomic_add(self.grid_amu[node], add_t)
                         else:
                             self.grid_amu[node] = self.grid_amu[node] + add_t
+                if ti.static(self.rigid_a):   # round 82: field A's mass for the grid update's friction
+                    if fl != 0:
+                        if ti.static(self.atomic):
+                            ti.atomic_add(self.grid_mf[node], weight * m)
+                        else:
+                            self.grid_mf[node] = self.grid_mf[node] + weight * m
                 if fl != 0:
                     mv = mv0 + A @ ti.Vector([float(i), float(j), float(k)])
                     add_sv = weight * ti.Vector([mv[0], mv[1], mv[2], m])
@@ -226,12 +239,13 @@ class Fields(PairTouch, PairPush, FieldFlip):
     def friction_base(self, I, v, m, f):
         """``(v_f, m_f, on)``: what the particle contact's friction acts on at node I (mean velocity ``v`` after the
         boundaries, mass ``m``, flowing-mass fraction ``f``). ``on`` 1 where the two fields keep their offsets
-        (``B_FRICTION`` in a ``"mixed"`` scene, ``0 < f < 1``, not :meth:`held_node`); there, with ``field_rule`` bit
+        (``B_FRICTION`` in a ``"mixed"`` scene, or round 82's ``RIGID_A_FRICTION`` with ``f`` a rigid field A's mass
+        fraction; ``0 < f < 1``, not :meth:`held_node`); there, with ``field_rule`` bit
         2 (``gasp_core.mpm.fields.B_OWN_FRICTION``), field B's own velocity and mass ``(1 - f) m``; else ``(v, m)``
         (warp_mpm's ``grid.build_field_friction``)."""
         on = 0
         vf, mf = v, m
-        if ti.static(self.b_friction and self.mixed):
+        if ti.static(self.b_fric_on):
             if f > 0.0 and f < 1.0 and self.held_node(I) == 0:
                 on = 1
                 if ti.static(self.field_rule // 2 % 2 != 0):
@@ -269,7 +283,7 @@ class Fields(PairTouch, PairPush, FieldFlip):
         """The particle contact's friction ``dv`` (m/s, its change of node I's mean velocity; B's points' budget) given
         to field B alone where ``on`` (:meth:`friction_base`; ``gasp_core.mpm.fields.B_FRICTION``): A's offset
         less ``dv``, B's plus ``dv f / (1 - f)``, ``f`` the node's flowing-mass fraction (A's share)."""
-        if ti.static(self.b_friction and self.mixed):
+        if ti.static(self.b_fric_on):
             if on != 0:
                 d = self.grid_dv[I]
                 db = (f / (1.0 - f)) * dv

@@ -379,6 +379,10 @@ class GridUpdate(GroundTouch):
             if ti.static(self.mixed):
                 f = self.grid_mf[I] / ti.max(acc[3], 1e-30)
                 self.grid_mf[I] = 0.0
+            fr = f   # the friction's fraction (fields.py): round 82, a rigid field A's mass fraction (boundaries: 0)
+            if ti.static(self.rigid_a):
+                fr = self.grid_mf[I] / ti.max(acc[3], 1e-30)
+                self.grid_mf[I] = 0.0
             if acc[3] > 0.0:
                 v = ti.Vector([acc[0], acc[1], acc[2]]) / acc[3] + self.dt[None] * self.gravity[None]
                 if ti.static(self.has_extras):
@@ -386,7 +390,7 @@ class GridUpdate(GroundTouch):
                 self.touch_keep(I, v, acc[3])   # round 49 (touch.py)
                 v = self.boundary_rules(I, v, f)
                 if ti.static(self.pc):   # the particle contact's friction and balance (its budget: the last channel)
-                    v = self.pc_friction(I, v, acc[3], acc[self.acc_width - 1], f)   # fields.py
+                    v = self.pc_friction(I, v, acc[3], acc[self.acc_width - 1], fr)   # fields.py
                 for b in ti.static(range(self.n_regions)):
                     if (I >= self.reg_lo[b]).all() and (I <= self.reg_hi[b]).all():
                         v = ti.Vector.zero(self.real, 3)

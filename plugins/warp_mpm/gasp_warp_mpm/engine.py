@@ -221,7 +221,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
                 self.mat_kind, self.mat_par, self.grid_mv, self.flags, lo_v, inv_dx, dx, dt_f, ng,
                 self.grid_g, self.has_wind, self.grid_mv0, int(self.flip > 0), self.p_contact, self.planes, self.plane_n,
                 self.grid_fb, self.grid_eta, self.c_shift, self.grid_fbody, ex, self.colc, self.n_sup, self.grid_fn,
-                self.grid_fv, self.grid_mf, self.flows, self.grid_sv, self.grid_vf, self.in_a, self.fixed, rule,
+                self.grid_fv, self.grid_mf, self.mf_bodies, self.grid_sv, self.grid_vf, self.in_a, self.fixed, rule,
                 self.p_pic, self.body_mu, *self.trap_arrays()]),
             wp.launch(k.grid_update, dim=grid_sweep(self)[1], device=d, record_cmd=True, inputs=[
                 self.grid_mv, self.grid_v, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, Ft(self.wall_in), self.wall_mu,

@@ -260,8 +260,11 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     k, d = eng.k, eng.device
     view = step_view(eng.setup)
     eng.flows = wp.array(flowing_bodies(view, contact).astype(np.int32), dtype=wp.int32, device=d)
-    eng.grid_mf = wp.zeros(eng.n_grid ** 3 if contact == "mixed" else 1, dtype=Ft, device=d)
     in_a = field_bodies(view)
+    # round 82 (gasp_core.mpm.fields.rigid_a_friction): a rigid field A's mass per node to grid_mf (P2G reads
+    # eng.mf_bodies), the grid update's friction then given to field B alone as in a mixed scene
+    eng.rigid_a = in_a is not None and contact != "mixed" and core_fields.rigid_a_friction(view)
+    eng.grid_mf = wp.zeros(eng.n_grid ** 3 if contact == "mixed" or eng.rigid_a else 1, dtype=Ft, device=d)
     shared_field_warning(view, ENGINE)   # solids glued where they touch (gasp_core.mpm.fields)
     eng.fields = in_a is not None
     eng.in_a = wp.array((in_a if eng.fields else np.zeros(1, bool)).astype(np.int32), dtype=wp.int32, device=d)
@@ -291,10 +294,12 @@ def allocate_fields(eng, Ft, contact: str) -> None:
         eng.grid_mv0 = wp.zeros(2 * n, dtype=k.vec4, device=d)
         eng.grid_v0 = wp.zeros(3 * n, dtype=k.vec3, device=d)
     # the grid update gives the particle contact's friction to field B alone (grid.build_field_friction)
-    on = eng.fields and contact == "mixed" and core_fields.B_FRICTION
+    on = eng.fields and ((contact == "mixed" and core_fields.B_FRICTION) or eng.rigid_a)
     eng.dv_friction = eng.grid_dv if on else wp.zeros(1, dtype=k.vec3, device=d)
-    # round 42: a ground's top layer free in untouched columns, the friction on B's own velocity (grid.py)
-    eng.field_rule = core_fields.field_rule() if eng.fields and contact == "mixed" else 0
+    # round 42: a ground's top layer free in untouched columns, the friction on B's own velocity (grid.py); round 82:
+    # bit 4 (8) alone where field A is rigid: grid_mf is A's mass for the friction only (the friction on the mean)
+    eng.field_rule = core_fields.field_rule() if eng.fields and contact == "mixed" else 8 if eng.rigid_a else 0
+    eng.mf_bodies = eng.in_a if eng.rigid_a else eng.flows   # whose mass P2G scatters to grid_mf
     eng.flow_touch_on = bool(eng.fields and flow_touch(view))   # the flowing body's touch (pair_touch.py)
     # round 75: its level per body, the point's surface at B's (gasp_core.mpm.flow_reach.flow_levels)
     eng.flow_level = wp.array(flow_levels(view) if eng.flow_touch_on else np.zeros(1), dtype=Ft, device=d)
