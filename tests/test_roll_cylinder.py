@@ -355,9 +355,9 @@ MISS73 = {
 }
 #: Round 80: the rolls at n_grid 24 of the bodies of R 3 cm (1.5 dx) were slow since round 76's spin booking (-6.48,
 #: -7.01, -5.29 %, strict xfails): the slab's ground friction (the particle contact's, on the node's mean velocity) at
-#: the node layer 2 dx under the centre, which the rigid field shares. Round 82 gives it to field B alone
+#: the node layer 2 dx under the centre, which the rigid field shares. Round 81 gives it to field B alone
 #: (``gasp_core.mpm.fields.RIGID_A_FRICTION``): -2.87, -3.06, -2.56 % on both engines (R 4.5 cm -1.62 %), so they
-#: pass (docs/rigid.md "Round 82"). The same rule fixed round 73's slips at n_grid 24 (mu 0.05, strict xfails:
+#: pass (docs/rigid.md "Round 81"). The same rule fixed round 73's slips at n_grid 24 (mu 0.05, strict xfails:
 #: -14.1 to -19.3 % of ``g (sin - mu cos)``, the spin-up +94 to +129 %, read then as the contact arc's excess): now
 #: -3.96, -2.24, -3.84 % and the ball -3.82 %, ``w R / v`` 0.30-0.37, the spin-up +2.6 to +4.4 %, both engines.
 #: Round 80: the rests at n_grid 24 (1.5 s), strict xfails since round 73 (the bodies rolled away 41-85 mm), now pass
@@ -416,7 +416,7 @@ def test_a_coarse_cylinder_rolls_by_its_cells_cover(engine, consts, ok):
 @pytest.mark.parametrize("engine", [ENGINES[0], pytest.param(ENGINES[1], marks=pytest.mark.slow)])
 @pytest.mark.parametrize("on", [True, False])
 def test_a_coarse_roll_needs_the_rigid_fields_friction_rule(engine, on):
-    """Round 82 (``docs/rigid.md`` "Round 82"): the cylinder of R 3 cm (1.5 dx) rolling down the 20 degree slope at mu
+    """Round 81 (``docs/rigid.md`` "Round 81"): the cylinder of R 3 cm (1.5 dx) rolling down the 20 degree slope at mu
     0.5 at n_grid 24 is within 5 % of the closed form with ``gasp_core.mpm.fields.RIGID_A_FRICTION`` (measured -2.87 %
     on both engines); the catch: False (the rule before, the slab's ground friction on the rigid field too) rolls more
     than 5 % slow (-6.48 %). The setup is the rule's scene (:func:`fields.rigid_a_friction`), off with the flag."""

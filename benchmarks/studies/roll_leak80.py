@@ -7,8 +7,8 @@ rigid field at G2P (``I w0 + booking``), and where that departure sits (node lay
 ``fix``: rounds 41-43's ``B_FRICTION`` (the particle contact's ground friction at a node shared by the two fields
 given to field B alone; today only in ``"mixed"`` scenes) switched on for this non-mixed scene by re-pointing the
 recorded ``grid_update``'s ``grid_mf`` (field A's mass at the shared nodes, from ``pc_m``), ``grid_dv`` and ``rule``
-(an experiment, not the engines' code). Round 82 made it the engines' rule (``gasp_core.mpm.fields.RIGID_A_FRICTION``,
-``--fix 0``'s bits: on the mean velocity; ``docs/rigid.md`` "Round 82"); set it False to see the study's own patch.
+(an experiment, not the engines' code). Round 81 made it the engines' rule (``gasp_core.mpm.fields.RIGID_A_FRICTION``,
+``--fix 0``'s bits: on the mean velocity; ``docs/rigid.md`` "Round 81"); set it False to see the study's own patch.
 
     python benchmarks/studies/roll_leak80.py budget 1      # SPIN_BOOKED 1 / 0
     python benchmarks/studies/roll_leak80.py slope 1 0.03 0.06 --fix 0   # rule bits for the fix (0: B_FRICTION only)

@@ -123,7 +123,7 @@ FIELD_OLD_VELOCITY = True
 #: Round 60 (docs/contact.md "Round 60", :mod:`gasp_core.mpm.gap_touch`): two bodies (:func:`body_pair`) touch where a
 #: point's surface reaches the other's, not by :data:`SOFT_TOUCH_FRACTION` (False: the rule before, the catch).
 GAP_TOUCH = True
-#: Round 82 (``docs/rigid.md`` "Round 82: the coarse roll's leak fixed"): :data:`B_FRICTION` in a two-body scene that
+#: Round 81 (``docs/rigid.md`` "Round 81: the coarse roll's leak fixed"): :data:`B_FRICTION` in a two-body scene that
 #: is not ``"mixed"`` where field A is rigid (:func:`rigid_a_friction`: a rigid body on a soft one, or two rigid
 #: bodies). A rigid body's own ground contact is the rigid law's, so the particle contact's ground friction, which
 #: the grid update applies to a node's mean velocity, is given to field B alone at the nodes the fields share
@@ -145,7 +145,7 @@ def field_rule() -> int:
 
 def rigid_a_friction(setup) -> bool:
     """Whether the grid update gives the particle contact's ground friction to field B alone in a scene that is not
-    ``"mixed"`` (:data:`RIGID_A_FRICTION`, round 82): two bodies on the particle contact running two fields
+    ``"mixed"`` (:data:`RIGID_A_FRICTION`, round 81): two bodies on the particle contact running two fields
     (:func:`field_bodies`) whose field A holds only rigid bodies (a rigid body smaller than the soft one it lies on,
     :func:`mixed_pair`, or either of :func:`rigid_pair`). Not where A is soft (a jelly block on a larger rigid slab:
     the rigid body is B) nor in a coloured scene of three or more bodies, whose ``in_a`` may change between frames

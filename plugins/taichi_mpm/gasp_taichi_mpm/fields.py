@@ -86,7 +86,7 @@ class Fields(PairTouch, PairPush, FieldFlip):
         # contact's friction to field B alone (read when the kernels compile)
         self.ground_mirror = bool(core_fields.GROUND_MIRROR)
         self.b_friction = bool(self.fields and core_fields.B_FRICTION)
-        # round 82 (gasp_core.mpm.fields.rigid_a_friction): a rigid field A's mass per node to grid_mf in P2G, the
+        # round 81 (gasp_core.mpm.fields.rigid_a_friction): a rigid field A's mass per node to grid_mf in P2G, the
         # friction then given to field B alone as in a mixed scene (on the mean velocity: field_rule stays 0)
         self.rigid_a = bool(self.fields and not self.mixed and setup is not None
                             and core_fields.rigid_a_friction(setup))
@@ -130,7 +130,7 @@ class Fields(PairTouch, PairPush, FieldFlip):
                             ti.atomic_add(self.grid_amu[node], add_t)
                         else:
                             self.grid_amu[node] = self.grid_amu[node] + add_t
-                if ti.static(self.rigid_a):   # round 82: field A's mass for the grid update's friction
+                if ti.static(self.rigid_a):   # round 81: field A's mass for the grid update's friction
                     if fl != 0:
                         if ti.static(self.atomic):
                             ti.atomic_add(self.grid_mf[node], weight * m)
@@ -239,7 +239,7 @@ class Fields(PairTouch, PairPush, FieldFlip):
     def friction_base(self, I, v, m, f):
         """``(v_f, m_f, on)``: what the particle contact's friction acts on at node I (mean velocity ``v`` after the
         boundaries, mass ``m``, flowing-mass fraction ``f``). ``on`` 1 where the two fields keep their offsets
-        (``B_FRICTION`` in a ``"mixed"`` scene, or round 82's ``RIGID_A_FRICTION`` with ``f`` a rigid field A's mass
+        (``B_FRICTION`` in a ``"mixed"`` scene, or round 81's ``RIGID_A_FRICTION`` with ``f`` a rigid field A's mass
         fraction; ``0 < f < 1``, not :meth:`held_node`); there, with ``field_rule`` bit
         2 (``gasp_core.mpm.fields.B_OWN_FRICTION``), field B's own velocity and mass ``(1 - f) m``; else ``(v, m)``
         (warp_mpm's ``grid.build_field_friction``)."""

@@ -261,7 +261,7 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     view = step_view(eng.setup)
     eng.flows = wp.array(flowing_bodies(view, contact).astype(np.int32), dtype=wp.int32, device=d)
     in_a = field_bodies(view)
-    # round 82 (gasp_core.mpm.fields.rigid_a_friction): a rigid field A's mass per node to grid_mf (P2G reads
+    # round 81 (gasp_core.mpm.fields.rigid_a_friction): a rigid field A's mass per node to grid_mf (P2G reads
     # eng.mf_bodies), the grid update's friction then given to field B alone as in a mixed scene
     eng.rigid_a = in_a is not None and contact != "mixed" and core_fields.rigid_a_friction(view)
     eng.grid_mf = wp.zeros(eng.n_grid ** 3 if contact == "mixed" or eng.rigid_a else 1, dtype=Ft, device=d)
@@ -296,7 +296,7 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     # the grid update gives the particle contact's friction to field B alone (grid.build_field_friction)
     on = eng.fields and ((contact == "mixed" and core_fields.B_FRICTION) or eng.rigid_a)
     eng.dv_friction = eng.grid_dv if on else wp.zeros(1, dtype=k.vec3, device=d)
-    # round 42: a ground's top layer free in untouched columns, the friction on B's own velocity (grid.py); round 82:
+    # round 42: a ground's top layer free in untouched columns, the friction on B's own velocity (grid.py); round 81:
     # bit 4 (8) alone where field A is rigid: grid_mf is A's mass for the friction only (the friction on the mean)
     eng.field_rule = core_fields.field_rule() if eng.fields and contact == "mixed" else 8 if eng.rigid_a else 0
     eng.mf_bodies = eng.in_a if eng.rigid_a else eng.flows   # whose mass P2G scatters to grid_mf

@@ -88,7 +88,7 @@ def build_field_friction(Ft):
     ``rule`` bit 2 (``gasp_core.mpm.fields.B_OWN_FRICTION``), the grid update takes the friction on B's own velocity
     and mass. ``field_friction(grid_dv, node, dv, f, on)``: at such a node (``on``) the friction's change ``dv`` of
     the mean velocity (m/s; its budget is field B's points', as only the bodies that do not flow take the particle
-    contact in a ``"mixed"`` scene; round 82: where field A is rigid, ``RIGID_A_FRICTION``, ``f`` A's mass fraction and
+    contact in a ``"mixed"`` scene; round 81: where field A is rigid, ``RIGID_A_FRICTION``, ``f`` A's mass fraction and
     ``rule`` 8) given to field B alone (``B_FRICTION``): A's offset less ``dv``, B's plus
     ``dv f / (1 - f)``, so A keeps its velocity and B takes the momentum ``m dv``. ``pc_friction(vel, m, f, node,
     grid_fb, colc, grid_fn, grid_fv, grid_dv, lo, hi, dx, wall_in, ground, n_grid, ground_touch, n_walls, rule)``: the
@@ -283,7 +283,7 @@ def build_node_update(Ft):
             k = node % n_grid
             X = lo + dx * vec3(Ft(i), Ft(j), Ft(k))
             fb = f   # the flowing-mass fraction of the boundaries and colliders (the contact chosen per body)
-            if (rule / 8) % 2 != 0:   # round 82: grid_mf is a rigid field A's mass, for the friction alone
+            if (rule / 8) % 2 != 0:   # round 81: grid_mf is a rigid field A's mass, for the friction alone
                 fb = Ft(0.0)
             if has_extras != 0:
                 gsurf = vec3(Ft(0.0))
