@@ -79,7 +79,7 @@ def _new_root(self, x):
 
 def _broken_warp_islands(monkeypatch):
     """warp_mpm's ``build_rigid_pairs_gpu`` with its ``islands`` kernel replaced by ``rigid_islands_broken``'s."""
-    from gasp_warp_mpm import rigid_pairs as wrp
+    from gasp_warp_mpm import rigid_islands as wrp
     import rigid_islands_broken as broken
     real = wrp.build_rigid_pairs_gpu
 

@@ -419,15 +419,16 @@ def test_a_coarse_roll_needs_the_rigid_fields_friction_rule(engine, on):
     """Round 81 (``docs/rigid.md`` "Round 81"): the cylinder of R 3 cm (1.5 dx) rolling down the 20 degree slope at mu
     0.5 at n_grid 24 is within 5 % of the closed form with ``gasp_core.mpm.fields.RIGID_A_FRICTION`` (measured -2.87 %
     on both engines); the catch: False (the rule before, the slab's ground friction on the rigid field too) rolls more
-    than 5 % slow (-6.48 %). The setup is the rule's scene (:func:`fields.rigid_a_friction`), off with the flag."""
+    than 5 % slow (-6.48 %). The setup is the rule's scene (:func:`gasp_core.mpm.rigid_a.rigid_a_friction`), off with the flag."""
     _need(engine)
     from gasp_core.mpm import fields
+    from gasp_core.mpm.rigid_a import rigid_a_friction
     from roll_cylinder import slope
     from roll_neighbours import slab_setup
     old = fields.RIGID_A_FRICTION
     fields.RIGID_A_FRICTION = on
     try:
-        assert fields.rigid_a_friction(slab_setup(24, [("cyl6", 0.03, (-0.06, 0.0), 0.0, 0.0)], mu=0.5,
+        assert rigid_a_friction(slab_setup(24, [("cyl6", 0.03, (-0.06, 0.0), 0.0, 0.0)], mu=0.5,
                                                   theta=20.0)) == on
         r = slope(engine, 24, 0.03, 0.06, 0.5)
     finally:

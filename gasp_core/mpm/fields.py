@@ -123,14 +123,7 @@ FIELD_OLD_VELOCITY = True
 #: Round 60 (docs/contact.md "Round 60", :mod:`gasp_core.mpm.gap_touch`): two bodies (:func:`body_pair`) touch where a
 #: point's surface reaches the other's, not by :data:`SOFT_TOUCH_FRACTION` (False: the rule before, the catch).
 GAP_TOUCH = True
-#: Round 81 (``docs/rigid.md`` "Round 81: the coarse roll's leak fixed"): :data:`B_FRICTION` in a two-body scene that
-#: is not ``"mixed"`` where field A is rigid (:func:`rigid_a_friction`: a rigid body on a soft one, or two rigid
-#: bodies). A rigid body's own ground contact is the rigid law's, so the particle contact's ground friction, which
-#: the grid update applies to a node's mean velocity, is given to field B alone at the nodes the fields share
-#: (A's offset less ``dv``, B's plus ``dv f / (1 - f)``, ``f`` A's mass fraction there, scattered in P2G to
-#: ``grid_mf``; on the mean's velocity, round 41's rule, not :data:`B_OWN_FRICTION`'s). False: both fields take it
-#: (the rule before: a cylinder of R 3 cm = 1.5 dx rolling down a jelly slab on a ground took the slab's ground
-#: friction at the node layer 2 dx under its centre and rolled 6.5 % slow at n_grid 24, round 80).
+#: Round 81: :data:`B_FRICTION` also where field A is rigid, not ``"mixed"`` (:mod:`gasp_core.mpm.rigid_a`; False: off).
 RIGID_A_FRICTION = True
 #: A body of field B that names no ``friction``, in :func:`node_friction`'s ``mu_b`` where :func:`b_unnamed_mix`
 #: (round 44): its points scatter ``w_ip m_p`` to B's unnamed channel, not ``w_ip m_p mu`` to B's named one.
@@ -141,23 +134,6 @@ def field_rule() -> int:
     """The engines' flags of rounds 42 and 43 as one int: bit 1 :data:`TOP_FREE`, bit 2 :data:`B_OWN_FRICTION`, bit 3
     :data:`B_BALANCE` (read when an engine is built)."""
     return int(bool(TOP_FREE)) + 2 * int(bool(B_OWN_FRICTION)) + 4 * int(bool(B_BALANCE))
-
-
-def rigid_a_friction(setup) -> bool:
-    """Whether the grid update gives the particle contact's ground friction to field B alone in a scene that is not
-    ``"mixed"`` (:data:`RIGID_A_FRICTION`, round 81): two bodies on the particle contact running two fields
-    (:func:`field_bodies`) whose field A holds only rigid bodies (a rigid body smaller than the soft one it lies on,
-    :func:`mixed_pair`, or either of :func:`rigid_pair`). Not where A is soft (a jelly block on a larger rigid slab:
-    the rigid body is B) nor in a coloured scene of three or more bodies, whose ``in_a`` may change between frames
-    (``colouring.RECOLOUR``). Read when an engine is built."""
-    from gasp_core.mpm.rigid import rigid_mask, step_view
-    setup = step_view(setup)
-    if not RIGID_A_FRICTION or contact_model(setup) != "particle" or len(setup.materials) != 2:
-        return False
-    in_a = field_bodies(setup)
-    if in_a is None or not np.asarray(in_a).any():
-        return False
-    return bool(np.asarray(rigid_mask(setup.materials))[np.asarray(in_a, bool)].all())
 
 
 #: A node's mass gradient shorter than this (kg/m, relative to ``m / dx``) gives no normal: the fields move as one.

@@ -86,10 +86,8 @@ class Fields(PairTouch, PairPush, FieldFlip):
         # contact's friction to field B alone (read when the kernels compile)
         self.ground_mirror = bool(core_fields.GROUND_MIRROR)
         self.b_friction = bool(self.fields and core_fields.B_FRICTION)
-        # round 81 (gasp_core.mpm.fields.rigid_a_friction): a rigid field A's mass per node to grid_mf in P2G, the
-        # friction then given to field B alone as in a mixed scene (on the mean velocity: field_rule stays 0)
-        self.rigid_a = bool(self.fields and not self.mixed and setup is not None
-                            and core_fields.rigid_a_friction(setup))
+        from gasp_core.mpm.rigid_a import rigid_a_friction   # round 81: a rigid field A's mass to grid_mf, friction to B
+        self.rigid_a = bool(self.fields and not self.mixed and setup is not None and rigid_a_friction(setup))
         if self.rigid_a:
             self.grid_mf = ti.field(self.real, shape=(ng, ng, ng))
         self.b_fric_on = bool((self.b_friction and self.mixed) or self.rigid_a)   # friction_base, field_friction
@@ -131,11 +129,8 @@ class Fields(PairTouch, PairPush, FieldFlip):
                         else:
                             self.grid_amu[node] = self.grid_amu[node] + add_t
                 if ti.static(self.rigid_a):   # round 81: field A's mass for the grid update's friction
-                    if fl != 0:
-                        if ti.static(self.atomic):
-                            ti.atomic_add(self.grid_mf[node], weight * m)
-                        else:
-                            self.grid_mf[node] = self.grid_mf[node] + weight * m
+                    if fl != 0:   # an atomic add: the same bits as a plain one in a serial loop
+                        ti.atomic_add(self.grid_mf[node], weight * m)
                 if fl != 0:
                     mv = mv0 + A @ ti.Vector([float(i), float(j), float(k)])
                     add_sv = weight * ti.Vector([mv[0], mv[1], mv[2], m])

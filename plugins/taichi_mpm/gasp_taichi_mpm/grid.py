@@ -1,7 +1,5 @@
-"""The grid update (docs/mpm.md step 3): summing the private grid copies, node velocity, gravity, forces, impulses and
-colliders, then the walls, grounds and fixed regions, as a Taichi kernel; and the boundaries as node-index ranges.
-Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields and flags (``real``, ``atomic``, ...) it reads.
-"""
+"""The grid update (docs/mpm.md step 3) as a Taichi kernel, and the boundaries as node-index ranges; mixed into
+:class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields and flags (``real``, ``atomic``, ...) it reads."""
 import math
 
 import numpy as np
@@ -23,14 +21,12 @@ def node_ranges(setup, dx: float, contact: str = "particle"):
     Returns
     -------
     walls : list of (friction, lo_first (3 ints), hi_first (3 ints))
-        Wall nodes along axis d are ``I_d < lo_first[d]`` (normal +e_d) and
-        ``I_d >= hi_first[d]`` (normal -e_d): within 3 cells of the faces, 1.5 with ``"particle"``, whose points meet
-        the walls' planes (``gasp_core.mpm.contact.wall_grid_cells``).
+        Wall nodes along axis d are ``I_d < lo_first[d]`` (normal +e_d) and ``I_d >= hi_first[d]`` (normal -e_d):
+        within 3 cells of the faces, 1.5 with ``"particle"`` (``gasp_core.mpm.contact.wall_grid_cells``).
     grounds : list of (friction, k_max, height)
         Ground nodes are ``I_z <= k_max`` (``gasp_core.mpm.contact.ground_node_layer`` of ``contact``: the top
         layer with ``"grid"``, two cells lower with ``"particle"``, whose points meet the plane at ``height``, m).
-    regions : list of (ilo (3 ints), ihi (3 ints))
-        Fixed nodes are ``ilo <= I <= ihi`` on every axis.
+    regions : list of (ilo (3 ints), ihi (3 ints)): fixed nodes are ``ilo <= I <= ihi`` on every axis.
     """
     lo = setup.domain_lo
     hi = setup.domain_hi

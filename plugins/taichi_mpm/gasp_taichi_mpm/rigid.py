@@ -269,10 +269,7 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
         if self.field_pair and not self.pair_many:   # two rigid bodies: their contact as one (rigid_friction.py)
             self.rigid_pair()
         elif self.pair_many:   # round 62: rigid bodies among three or more, their pairs solved together
-            if self.gpu and self.pair_islands:   # round 81: the same bits, the islands in parallel
-                self.rigid_pairs_gpu()
-            else:
-                self.rigid_pairs()
+            self.rigid_pairs_gpu() if self.gpu and self.pair_islands else self.rigid_pairs()   # round 81: islands
         self.rigid_apply()
         if self.n_planes and self.pc:
             if self.gpu:

@@ -160,7 +160,8 @@ class RigidPairs:
         6. one thread a body: the centres' advance; 7. one thread a listed slot: its sums cleared; then ``pair_n``.
 
         A pile of separate stacks is as many islands as stacks; one heap where every body touches is one island,
-        swept on one thread as before (``docs/performance.md`` "Round 81")."""
+        swept on one thread as before (``docs/performance.md`` "Round 81"). Long because its seven tasks must run in
+        one kernel, in turn."""
         dt = ti.cast(self.dt[None], ti.f64)
         half = 0.5 * self.rb_aff[None] * ti.cast(self.dx[None], ti.f64) ** 2   # 0 since round 67 (APIC_SPIN)
         g = ti.cast(self.gravity[None], ti.f64)

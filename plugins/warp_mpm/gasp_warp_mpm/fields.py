@@ -261,9 +261,10 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     view = step_view(eng.setup)
     eng.flows = wp.array(flowing_bodies(view, contact).astype(np.int32), dtype=wp.int32, device=d)
     in_a = field_bodies(view)
-    # round 81 (gasp_core.mpm.fields.rigid_a_friction): a rigid field A's mass per node to grid_mf (P2G reads
+    # round 81 (gasp_core.mpm.rigid_a): a rigid field A's mass per node to grid_mf (P2G reads
     # eng.mf_bodies), the grid update's friction then given to field B alone as in a mixed scene
-    eng.rigid_a = in_a is not None and contact != "mixed" and core_fields.rigid_a_friction(view)
+    from gasp_core.mpm.rigid_a import rigid_a_friction
+    eng.rigid_a = in_a is not None and contact != "mixed" and rigid_a_friction(view)
     eng.grid_mf = wp.zeros(eng.n_grid ** 3 if contact == "mixed" or eng.rigid_a else 1, dtype=Ft, device=d)
     shared_field_warning(view, ENGINE)   # solids glued where they touch (gasp_core.mpm.fields)
     eng.fields = in_a is not None

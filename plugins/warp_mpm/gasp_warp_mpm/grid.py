@@ -241,7 +241,8 @@ def build_boundary_rules(Ft):
 @functools.cache
 def build_node_update(Ft):
     """``node_update(node, ...)``, scalar type ``Ft``: the grid update at one node (the parameters of
-    :func:`build_grid_update`'s kernel but its sweep's): node velocity, gravity, extras, boundaries."""
+    :func:`build_grid_update`'s kernel but its sweep's): node velocity, gravity, extras, boundaries. Long because
+    each boundary rule acts in turn on the one node."""
     vec3, vec4, mat33 = build_types(Ft)
     boundary_rules = build_boundary_rules(Ft)
     Extras, extras = build_extras(Ft)
