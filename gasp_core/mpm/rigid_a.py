@@ -18,7 +18,7 @@ def rigid_a_friction(setup) -> bool:
     :func:`fields.mixed_pair`, or either of :func:`fields.rigid_pair`). Not where A is soft (a jelly block on a larger rigid slab:
     the rigid body is B) nor in a coloured scene of three or more bodies, whose ``in_a`` may change between frames
     (``colouring.RECOLOUR``). Read when an engine is built."""
-    from gasp_core.mpm import fields
+    import gasp_core.mpm.fields as fields
     from gasp_core.mpm.rigid import rigid_mask, step_view
     setup = step_view(setup)
     if not fields.RIGID_A_FRICTION or fields.contact_model(setup) != "particle" or len(setup.materials) != 2:
