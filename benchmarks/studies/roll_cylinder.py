@@ -82,13 +82,14 @@ def flat(engine: str, n_grid: int = 32, R: float = 0.03, L: float = 0.06, mu: fl
 
 
 def slope(engine: str, n_grid: int = 32, R: float = 0.03, L: float = 0.06, mu: float = 0.5, theta: float = 20.0,
-          T: float = 0.2, roll: bool = True, c_rr: float = 0.0) -> dict:
-    """The ``slope`` scene's figures (module notes); ``c_rr`` the slab's rolling resistance (``flat``'s)."""
+          T: float = 0.2, roll: bool = True, c_rr: float = 0.0, width: float = 0.16) -> dict:
+    """The ``slope`` scene's figures (module notes); ``c_rr`` the slab's rolling resistance (``flat``'s); ``width`` the
+    slab's (m; round 82: under 9 cm a cylinder 18 cm long is the larger body, the rigid field B)."""
     k = k_ratio(n_grid, R, L)
     th = np.radians(theta)
     rolls = mu >= np.tan(th) / (1.0 + 1.0 / k)
     closed = G * np.sin(th) / (1.0 + k) if rolls else G * (np.sin(th) - mu * np.cos(th))
-    r = rolling(engine, n_grid, [(_shape(L), R, (-0.06, 0.0), 0.0, 0.0)], roll, T, mu=mu, theta=theta)[0]
+    r = rolling(engine, n_grid, [(_shape(L), R, (-0.06, 0.0), 0.0, 0.0)], roll, T, width, mu=mu, theta=theta)[0]
     a = _fit(r["t"], r["v"])
     net = closed - (c_rr * G * np.cos(th) / (1.0 + k) if rolls else 0.0)
     out = {"rolls": bool(rolls), "a": a, "closed": float(closed), "err": a / closed - 1.0, "err_rr": a / net - 1.0,

@@ -125,6 +125,9 @@ FIELD_OLD_VELOCITY = True
 GAP_TOUCH = True
 #: Round 81: :data:`B_FRICTION` also where field A is rigid, not ``"mixed"`` (:mod:`gasp_core.mpm.rigid_a`; False: off).
 RIGID_A_FRICTION = True
+#: Round 82: the mirror of :data:`RIGID_A_FRICTION`, a rigid field B (a rigid body larger than the soft one it lies on)
+#: whose soft field A takes the friction alone (:func:`gasp_core.mpm.rigid_a.rigid_friction_side` 2; False: off).
+RIGID_B_FRICTION = True
 #: A body of field B that names no ``friction``, in :func:`node_friction`'s ``mu_b`` where :func:`b_unnamed_mix`
 #: (round 44): its points scatter ``w_ip m_p`` to B's unnamed channel, not ``w_ip m_p mu`` to B's named one.
 UNNAMED = -2.0

@@ -5,10 +5,36 @@ alone at the nodes the fields share (A's offset less ``dv``, B's plus ``dv f / (
 there, scattered in P2G to ``grid_mf``; on the mean's velocity, round 41's rule). Before it both fields took it: a
 cylinder of R 3 cm = 1.5 dx rolling down a jelly slab on a ground took the slab's ground friction at the node layer
 2 dx under its centre and rolled 6.5 % slow at n_grid 24 (round 80).
+
+Round 82 (``docs/rigid.md`` "Round 82: the mirror"): the same leak where the rigid body is field B (larger by volume
+than the soft body it lies on: a cylinder of R 4.5 cm, 12 cm long, on a slab 6 cm wide rolled 8.5 % slow at n_grid 24),
+so there the friction goes to field A alone (:func:`rigid_friction_side` 2): B's offset less ``dv``, A's plus
+``dv (1 - f) / f``, ``f`` still A's mass fraction. The rule in one line: the friction goes to the soft field, whose
+points the ground holds, never to a rigid one.
 """
 from __future__ import annotations
 
 import numpy as np
+
+
+def rigid_friction_side(setup) -> int:
+    """Which field the grid update gives the particle contact's ground friction to, in a two-field scene that is not
+    ``"mixed"``: 1 field B alone (:func:`rigid_a_friction`: field A rigid), 2 field A alone (round 82,
+    :data:`gasp_core.mpm.fields.RIGID_B_FRICTION`: a soft field A beside a rigid field B, :func:`fields.mixed_pair`), 0
+    both (the rule before; any other scene). Read when an engine is built."""
+    import gasp_core.mpm.fields as fields
+    from gasp_core.mpm.rigid import rigid_mask, step_view
+    if rigid_a_friction(setup):
+        return 1
+    setup = step_view(setup)
+    if not fields.RIGID_B_FRICTION or fields.contact_model(setup) != "particle" or not fields.mixed_pair(setup):
+        return 0
+    in_a = fields.field_bodies(setup)
+    if in_a is None:
+        return 0
+    rigid = np.asarray(rigid_mask(setup.materials))
+    in_a = np.asarray(in_a, bool)
+    return 2 if in_a.any() and not rigid[in_a].any() and rigid[~in_a].all() else 0
 
 
 def rigid_a_friction(setup) -> bool:

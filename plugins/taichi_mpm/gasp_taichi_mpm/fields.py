@@ -15,12 +15,13 @@ from gasp_core.mpm import fields as core_fields
 from gasp_core.mpm.fields import MIN_FRACTION, MIN_GRADIENT
 
 from .field_flip import FieldFlip
+from .field_ground import FieldGround
 from .pair_push import PairPush
 from .pair_touch import PairTouch
 
 
 @ti.data_oriented
-class Fields(PairTouch, PairPush, FieldFlip):
+class Fields(PairTouch, PairPush, FieldFlip, FieldGround):
     """The two-field contact's fields and kernels (none without it: ``self.fields`` False)."""
 
     def set_in_a(self, in_a) -> None:
@@ -86,8 +87,11 @@ class Fields(PairTouch, PairPush, FieldFlip):
         # contact's friction to field B alone (read when the kernels compile)
         self.ground_mirror = bool(core_fields.GROUND_MIRROR)
         self.b_friction = bool(self.fields and core_fields.B_FRICTION)
-        from gasp_core.mpm.rigid_a import rigid_a_friction   # round 81: a rigid field A's mass to grid_mf, friction to B
-        self.rigid_a = bool(self.fields and not self.mixed and setup is not None and rigid_a_friction(setup))
+        # round 81: field A's mass to grid_mf beside a rigid field, the friction to the soft one: B where A is rigid,
+        # A where B is (round 82, rigid_side 2)
+        from gasp_core.mpm.rigid_a import rigid_friction_side
+        self.rigid_side = (rigid_friction_side(setup) if self.fields and not self.mixed and setup is not None else 0)
+        self.rigid_a = self.rigid_side != 0
         if self.rigid_a:
             self.grid_mf = ti.field(self.real, shape=(ng, ng, ng))
         self.b_fric_on = bool((self.b_friction and self.mixed) or self.rigid_a)   # friction_base, field_friction
@@ -217,73 +221,6 @@ class Fields(PairTouch, PairPush, FieldFlip):
                 if I[2] <= top and 2 * top - I[2] < self.n_grid:
                     out += self.mass_b(ti.Vector([I[0], I[1], 2 * top - I[2]]))
         return out
-
-    @ti.func
-    def held_node(self, I):
-        """1 where a ground's or the walls' grid rule reaches node I (both fields move with the mean there)."""
-        held = 0
-        for b in ti.static(range(self.n_grounds)):
-            if self.field_reach(b, I):   # with the touched layer, the top layer freed (touch.py)
-                held = 1
-        for b in ti.static(range(self.n_walls)):
-            if (I < self.wall_lo_first[b]).any() or (I >= self.wall_hi_first[b]).any():
-                held = 1
-        return held
-
-    @ti.func
-    def friction_base(self, I, v, m, f):
-        """``(v_f, m_f, on)``: what the particle contact's friction acts on at node I (mean velocity ``v`` after the
-        boundaries, mass ``m``, flowing-mass fraction ``f``). ``on`` 1 where the two fields keep their offsets
-        (``B_FRICTION`` in a ``"mixed"`` scene, or round 81's ``RIGID_A_FRICTION`` with ``f`` a rigid field A's mass
-        fraction; ``0 < f < 1``, not :meth:`held_node`); there, with ``field_rule`` bit
-        2 (``gasp_core.mpm.fields.B_OWN_FRICTION``), field B's own velocity and mass ``(1 - f) m``; else ``(v, m)``
-        (warp_mpm's ``grid.build_field_friction``)."""
-        on = 0
-        vf, mf = v, m
-        if ti.static(self.b_fric_on):
-            if f > 0.0 and f < 1.0 and self.held_node(I) == 0:
-                on = 1
-                if ti.static(self.field_rule // 2 % 2 != 0):
-                    d = self.grid_dv[I]
-                    vf, mf = v + ti.Vector([d[3], d[4], d[5]]), (1.0 - f) * m
-        return vf, mf, on
-
-    @ti.func
-    def pc_friction(self, I, v_in, m, budget, f):
-        """The particle contact's Coulomb friction at node I (mean velocity ``v_in`` after the boundaries, mass ``m``,
-        the budget ``budget``; with walls or colliders relative to the supports, normal to them: ``grid_fnv``) on
-        what :meth:`friction_base` names, then the contact's balance (balance.py; where the fields keep their offsets
-        ``f`` kept in ``grid_mf`` for its fix, ``gasp_core.mpm.fields.B_BALANCE``) and :meth:`field_friction`; returns
-        the node's new mean velocity."""
-        vf, mf, on = self.friction_base(I, v_in, m, f)
-        v = vf
-        if ti.static(self.nfric):
-            g = self.grid_fnv[I]
-            self.grid_fnv[I] = ti.Vector.zero(self.real, 6)
-            v = self.surface_friction(vf, mf, budget, ti.Vector([g[0], g[1], g[2]]), ti.Vector([g[3], g[4], g[5]]))
-        else:
-            v = self.node_friction(vf, mf, budget)
-        if mf < m:   # on B's own velocity: the mean takes B's share of the change
-            v = v_in + (mf / m) * (v - vf)
-        if self.n_spin > 0:
-            self.balance_node(I, v_in, v, m, budget)
-            if ti.static(self.b_friction and self.mixed and self.field_rule // 4 % 2 != 0):
-                if on != 0 and self.grid_fbody[I] >= 0:   # B_BALANCE: f kept for the balance's fix (apply_fix)
-                    self.grid_mf[I] = f
-        self.field_friction(I, v - v_in, f, on)
-        return v
-
-    @ti.func
-    def field_friction(self, I, dv, f, on):
-        """The particle contact's friction ``dv`` (m/s, its change of node I's mean velocity; B's points' budget) given
-        to field B alone where ``on`` (:meth:`friction_base`; ``gasp_core.mpm.fields.B_FRICTION``): A's offset
-        less ``dv``, B's plus ``dv f / (1 - f)``, ``f`` the node's flowing-mass fraction (A's share)."""
-        if ti.static(self.b_fric_on):
-            if on != 0:
-                d = self.grid_dv[I]
-                db = (f / (1.0 - f)) * dv
-                self.grid_dv[I] = ti.Vector([d[0] - dv[0], d[1] - dv[1], d[2] - dv[2], d[3] + db[0], d[4] + db[1],
-                                             d[5] + db[2]])
 
     @ti.kernel
     def field_contact(self):

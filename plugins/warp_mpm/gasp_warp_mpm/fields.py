@@ -261,10 +261,12 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     view = step_view(eng.setup)
     eng.flows = wp.array(flowing_bodies(view, contact).astype(np.int32), dtype=wp.int32, device=d)
     in_a = field_bodies(view)
-    # round 81 (gasp_core.mpm.rigid_a): a rigid field A's mass per node to grid_mf (P2G reads
-    # eng.mf_bodies), the grid update's friction then given to field B alone as in a mixed scene
-    from gasp_core.mpm.rigid_a import rigid_a_friction
-    eng.rigid_a = in_a is not None and contact != "mixed" and rigid_a_friction(view)
+    # round 81 (gasp_core.mpm.rigid_a): field A's mass per node to grid_mf (P2G reads eng.mf_bodies) where one
+    # field is rigid, the grid update's friction then given to the soft field alone: B where A is rigid (as in a
+    # mixed scene), A where B is (round 82, rule bit 16)
+    from gasp_core.mpm.rigid_a import rigid_friction_side
+    eng.rigid_side = rigid_friction_side(view) if in_a is not None and contact != "mixed" else 0
+    eng.rigid_a = eng.rigid_side != 0
     eng.grid_mf = wp.zeros(eng.n_grid ** 3 if contact == "mixed" or eng.rigid_a else 1, dtype=Ft, device=d)
     shared_field_warning(view, ENGINE)   # solids glued where they touch (gasp_core.mpm.fields)
     eng.fields = in_a is not None
@@ -299,7 +301,8 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     eng.dv_friction = eng.grid_dv if on else wp.zeros(1, dtype=k.vec3, device=d)
     # round 42: a ground's top layer free in untouched columns, the friction on B's own velocity (grid.py); round 81:
     # bit 4 (8) alone where field A is rigid: grid_mf is A's mass for the friction only (the friction on the mean)
-    eng.field_rule = core_fields.field_rule() if eng.fields and contact == "mixed" else 8 if eng.rigid_a else 0
+    eng.field_rule = (core_fields.field_rule() if eng.fields and contact == "mixed" else
+                      8 + 16 * int(eng.rigid_side == 2) if eng.rigid_a else 0)
     eng.mf_bodies = eng.in_a if eng.rigid_a else eng.flows   # whose mass P2G scatters to grid_mf
     eng.flow_touch_on = bool(eng.fields and flow_touch(view))   # the flowing body's touch (pair_touch.py)
     # round 75: its level per body, the point's surface at B's (gasp_core.mpm.flow_reach.flow_levels)

@@ -90,7 +90,9 @@ def build_field_friction(Ft):
     the mean velocity (m/s; its budget is field B's points', as only the bodies that do not flow take the particle
     contact in a ``"mixed"`` scene; round 81: where field A is rigid, ``RIGID_A_FRICTION``, ``f`` A's mass fraction and
     ``rule`` 8) given to field B alone (``B_FRICTION``): A's offset less ``dv``, B's plus
-    ``dv f / (1 - f)``, so A keeps its velocity and B takes the momentum ``m dv``. ``pc_friction(vel, m, f, node,
+    ``dv f / (1 - f)``, so A keeps its velocity and B takes the momentum ``m dv``; ``on`` 2 (round 82, ``rule`` bit
+    16: field B rigid, ``gasp_core.mpm.rigid_a.rigid_friction_side``) the mirror, to field A alone: B's offset less
+    ``dv``, A's plus ``dv (1 - f) / f``. ``pc_friction(vel, m, f, node,
     grid_fb, colc, grid_fn, grid_fv, grid_dv, lo, hi, dx, wall_in, ground, n_grid, ground_touch, n_walls, rule)``: the
     grid update's friction (:func:`build_contact_friction`) on the mean ``vel`` or B's own, then ``field_friction``;
     returns the node's new mean velocity (m/s). ``keep_fraction(grid_mf, grid_fbody, grid_dv, node, f, lo, hi, dx,
@@ -120,10 +122,13 @@ def build_field_friction(Ft):
 
     @wp.func
     def field_friction(grid_dv: wp.array(dtype=vec3), node: int, dv: vec3, f: Ft, on: int):
-        if on != 0:
-            n_nodes = grid_dv.shape[0] / 2
+        n_nodes = grid_dv.shape[0] / 2
+        if on == 1:
             grid_dv[node] = grid_dv[node] - dv
             grid_dv[n_nodes + node] = grid_dv[n_nodes + node] + (f / (Ft(1.0) - f)) * dv
+        elif on == 2:   # round 82: to field A alone (a rigid field B)
+            grid_dv[n_nodes + node] = grid_dv[n_nodes + node] - dv
+            grid_dv[node] = grid_dv[node] + ((Ft(1.0) - f) / f) * dv
 
     @wp.func
     def pc_friction(vel: vec3, m: Ft, f: Ft, node: int, grid_fb: wp.array(dtype=Ft), colc: int,
@@ -138,6 +143,8 @@ def build_field_friction(Ft):
                                                           grid_fv) - vb)
         else:
             out = contact_friction(vel, m, node, grid_fb, colc, grid_fn, grid_fv)
+        if on != 0 and (rule / 16) % 2 != 0:
+            on = int(2)
         field_friction(grid_dv, node, out - vel, f, on)
         return out
 
@@ -284,7 +291,7 @@ def build_node_update(Ft):
             k = node % n_grid
             X = lo + dx * vec3(Ft(i), Ft(j), Ft(k))
             fb = f   # the flowing-mass fraction of the boundaries and colliders (the contact chosen per body)
-            if (rule / 8) % 2 != 0:   # round 81: grid_mf is a rigid field A's mass, for the friction alone
+            if (rule / 8) % 2 != 0:   # round 81: grid_mf is field A's mass beside a rigid field, for the friction alone
                 fb = Ft(0.0)
             if has_extras != 0:
                 gsurf = vec3(Ft(0.0))
