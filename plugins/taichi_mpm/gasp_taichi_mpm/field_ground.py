@@ -47,7 +47,8 @@ class FieldGround:
         what :meth:`friction_base` names, then the contact's balance (balance.py; where the fields keep their offsets
         ``f`` kept in ``grid_mf`` for its fix, ``gasp_core.mpm.fields.B_BALANCE``) and :meth:`field_friction`; returns
         the node's new mean velocity."""
-        vf, mf, on = self.friction_base(I, v_in, m, f)
+        fa = ti.abs(f)   # round 82: f < 0, A's mass fraction where field B is rigid at the node (rigid_side_mass)
+        vf, mf, on = self.friction_base(I, v_in, m, fa)
         v = vf
         if ti.static(self.nfric):
             g = self.grid_fnv[I]
@@ -61,10 +62,10 @@ class FieldGround:
             self.balance_node(I, v_in, v, m, budget)
             if ti.static(self.b_friction and self.mixed and self.field_rule // 4 % 2 != 0):
                 if on != 0 and self.grid_fbody[I] >= 0:   # B_BALANCE: f kept for the balance's fix (apply_fix)
-                    self.grid_mf[I] = f
-        if ti.static(self.rigid_side == 2):   # round 82: to field A alone
+                    self.grid_mf[I] = fa
+        if f < 0.0:   # round 82: to field A alone
             on *= 2
-        self.field_friction(I, v - v_in, f, on)
+        self.field_friction(I, v - v_in, fa, on)
         return v
 
     @ti.func
@@ -85,3 +86,21 @@ class FieldGround:
                 da = ((1.0 - f) / f) * dv
                 self.grid_dv[I] = ti.Vector([d[0] + da[0], d[1] + da[1], d[2] + da[2], d[3] - dv[0], d[4] - dv[1],
                                              d[5] - dv[2]])
+
+    @ti.func
+    def rigid_side_mass(self, r, m, m_a):
+        """Round 82 (``gasp_core.mpm.rigid_a.rigid_node_rule``): ``r`` node I's rigid mass (P2G), ``m`` its mass, ``m_a``
+        field A's: ``m_a`` where A holds all the rigid mass and B none (rule bit 1, the friction to B alone), ``-m_a``
+        where B holds all and A none (bit 2, to A alone), else 0 (both fields take it); warp_mpm's
+        ``field_nodes.rigid_side_mass``."""
+        out = ti.cast(0.0, self.real)
+        m_b = m - m_a
+        tol = 1e-5 * m
+        if r > 0.0 and m_a > 0.0 and m_b > 0.0:
+            if ti.static(self.rigid_rule % 2 != 0):
+                if ti.abs(r - m) <= tol or ti.abs(r - m_a) <= tol:
+                    out = m_a
+            if ti.static(self.rigid_rule // 2 % 2 != 0):
+                if out == 0.0 and ti.abs(r - m_b) <= tol:
+                    out = -m_a
+        return out

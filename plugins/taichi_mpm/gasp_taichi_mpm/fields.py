@@ -87,13 +87,18 @@ class Fields(PairTouch, PairPush, FieldFlip, FieldGround):
         # contact's friction to field B alone (read when the kernels compile)
         self.ground_mirror = bool(core_fields.GROUND_MIRROR)
         self.b_friction = bool(self.fields and core_fields.B_FRICTION)
-        # round 81: field A's mass to grid_mf beside a rigid field, the friction to the soft one: B where A is rigid,
-        # A where B is (round 82, rigid_side 2)
-        from gasp_core.mpm.rigid_a import rigid_friction_side
-        self.rigid_side = (rigid_friction_side(setup) if self.fields and not self.mixed and setup is not None else 0)
-        self.rigid_a = self.rigid_side != 0
+        # round 81: the friction to the soft field beside a rigid one; round 82 per node (rigid_node_rule): P2G
+        # scatters the rigid bodies' mass (mf_body) to grid_mf, field_contact writes A's back signed
+        from gasp_core.mpm.rigid import rigid_mask
+        from gasp_core.mpm.rigid_a import rigid_node_rule
+        self.rigid_rule = rigid_node_rule(setup) if self.fields and not self.mixed and setup is not None else 0
+        self.rigid_a = self.rigid_rule != 0
         if self.rigid_a:
             self.grid_mf = ti.field(self.real, shape=(ng, ng, ng))
+            rigid = rigid_mask(setup.materials)
+            self.mf_body = ti.field(ti.i32, shape=max(4, len(rigid)))
+            for b, r in enumerate(rigid):
+                self.mf_body[b] = int(r)
         self.b_fric_on = bool((self.b_friction and self.mixed) or self.rigid_a)   # friction_base, field_friction
         # round 42: a ground's top layer free in untouched columns, the friction on B's own velocity (touch.py)
         self.field_rule = core_fields.field_rule() if self.fields and self.mixed else 0
@@ -132,8 +137,8 @@ class Fields(PairTouch, PairPush, FieldFlip, FieldGround):
                             ti.atomic_add(self.grid_amu[node], add_t)
                         else:
                             self.grid_amu[node] = self.grid_amu[node] + add_t
-                if ti.static(self.rigid_a):   # round 81: field A's mass for the grid update's friction
-                    if fl != 0:   # an atomic add: the same bits as a plain one in a serial loop
+                if ti.static(self.rigid_a):   # rounds 81-82: the rigid bodies' mass for the grid update's friction
+                    if self.mf_body[self.body[p]] != 0:   # an atomic add: the same bits as a plain one serially
                         ti.atomic_add(self.grid_mf[node], weight * m)
                 if fl != 0:
                     mv = mv0 + A @ ti.Vector([float(i), float(j), float(k)])
@@ -237,6 +242,8 @@ class Fields(PairTouch, PairPush, FieldFlip, FieldGround):
             sv = self.grid_sv[I]
             m_a = sv[3]
             m_b = m - m_a
+            if ti.static(self.rigid_a):   # round 82: A's mass signed by the side that takes the friction
+                self.grid_mf[I] = self.rigid_side_mass(self.grid_mf[I], m, m_a)
             u2 = ti.Vector.zero(self.real, 3)
             u = ti.Vector.zero(self.real, 3)
             layer = 0

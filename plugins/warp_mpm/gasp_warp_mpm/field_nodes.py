@@ -167,17 +167,36 @@ def box_launches(eng, Ft) -> list:
 
 @functools.cache
 def build_field_shared(Ft):
-    """``field_shared(grid_mv, grid_sv, grid_dv, n_grid, shared, n_shared, box, threads, along)``: at each node of
+    """``field_shared(grid_mv, grid_sv, grid_dv, n_grid, shared, n_shared, grid_mf, rigid_rule, box, threads, along)``:
+    at each node of
     the box sweep (module notes) the offsets (``grid_dv``: field A's at ``node``, B's at ``n_grid^3 + node``) to zero,
     and the node appended to ``shared`` (its count ``n_shared[0]``) where it is inner and both fields hold more than
-    ``MIN_FRACTION`` of its mass (``grid_mv``'s fourth entry, A's ``grid_sv``'s), as ``fields.field_contact`` asks."""
+    ``MIN_FRACTION`` of its mass (``grid_mv``'s fourth entry, A's ``grid_sv``'s), as ``fields.field_contact`` asks;
+    with ``rigid_rule`` (round 82, ``gasp_core.mpm.rigid_a.rigid_node_rule``) the node's rigid mass in ``grid_mf``
+    rewritten as A's mass, signed by the side that takes the friction (``rigid_side_mass``)."""
     vec3, vec4, mat33 = build_types(Ft)
     box_units, unit_first, unit_len, box_q = build_sweep(Ft)
+
+    @wp.func
+    def rigid_side_mass(r: Ft, m: Ft, m_a: Ft, rule: int):
+        # round 82 (gasp_core.mpm.rigid_a.rigid_node_rule): r the node's rigid mass (P2G); A's mass m_a where A holds
+        # all of it and B none (rule bit 1: the friction to B alone), -m_a where B holds all and A none (bit 2: to A
+        # alone), else 0 (both fields take it); taichi_mpm's Fields.rigid_side_mass
+        out = Ft(0.0)
+        m_b = m - m_a
+        tol = Ft(1e-5) * m
+        if r > Ft(0.0) and m_a > Ft(0.0) and m_b > Ft(0.0):
+            if rule % 2 != 0 and (wp.abs(r - m) <= tol or wp.abs(r - m_a) <= tol):
+                out = m_a
+            elif (rule / 2) % 2 != 0 and wp.abs(r - m_b) <= tol:
+                out = -m_a
+        return out
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def field_shared(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), grid_dv: wp.array(dtype=vec3),
                      n_grid: int, shared: wp.array(dtype=wp.int32), n_shared: wp.array(dtype=wp.int32),
-                     box: wp.array(dtype=wp.int32), threads: int, along: int):
+                     grid_mf: wp.array(dtype=Ft), rigid_rule: int, box: wp.array(dtype=wp.int32), threads: int,
+                     along: int):
         nn = n_grid * n_grid
         n = box_units(box, along)
         run = (n + threads - 1) / threads
@@ -191,6 +210,8 @@ def build_field_shared(Ft):
                     m = grid_mv[node][3]
                     m_a = grid_sv[node][3]
                     m_b = m - m_a
+                    if rigid_rule != 0:
+                        grid_mf[node] = rigid_side_mass(grid_mf[node], m, m_a, rigid_rule)
                     if m_a > Ft(MIN_FRACTION) * m and m_b > Ft(MIN_FRACTION) * m:
                         i = node / nn
                         j = (node / n_grid) % n_grid

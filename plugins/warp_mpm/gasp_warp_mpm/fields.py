@@ -261,12 +261,13 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     view = step_view(eng.setup)
     eng.flows = wp.array(flowing_bodies(view, contact).astype(np.int32), dtype=wp.int32, device=d)
     in_a = field_bodies(view)
-    # round 81 (gasp_core.mpm.rigid_a): field A's mass per node to grid_mf (P2G reads eng.mf_bodies) where one
-    # field is rigid, the grid update's friction then given to the soft field alone: B where A is rigid (as in a
-    # mixed scene), A where B is (round 82, rule bit 16)
-    from gasp_core.mpm.rigid_a import rigid_friction_side
-    eng.rigid_side = rigid_friction_side(view) if in_a is not None and contact != "mixed" else 0
-    eng.rigid_a = eng.rigid_side != 0
+    # rounds 81-82 (gasp_core.mpm.rigid_a.rigid_node_rule): beside a rigid field the grid update's friction goes to
+    # the soft field alone, decided per node: P2G scatters the rigid bodies' mass (eng.mf_bodies) to grid_mf,
+    # field_shared writes A's mass back signed (field_nodes.rigid_side_mass)
+    from gasp_core.mpm.rigid import rigid_mask
+    from gasp_core.mpm.rigid_a import rigid_node_rule
+    eng.rigid_rule = rigid_node_rule(view) if in_a is not None and contact != "mixed" else 0
+    eng.rigid_a = eng.rigid_rule != 0
     eng.grid_mf = wp.zeros(eng.n_grid ** 3 if contact == "mixed" or eng.rigid_a else 1, dtype=Ft, device=d)
     shared_field_warning(view, ENGINE)   # solids glued where they touch (gasp_core.mpm.fields)
     eng.fields = in_a is not None
@@ -301,9 +302,9 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     eng.dv_friction = eng.grid_dv if on else wp.zeros(1, dtype=k.vec3, device=d)
     # round 42: a ground's top layer free in untouched columns, the friction on B's own velocity (grid.py); round 81:
     # bit 4 (8) alone where field A is rigid: grid_mf is A's mass for the friction only (the friction on the mean)
-    eng.field_rule = (core_fields.field_rule() if eng.fields and contact == "mixed" else
-                      8 + 16 * int(eng.rigid_side == 2) if eng.rigid_a else 0)
-    eng.mf_bodies = eng.in_a if eng.rigid_a else eng.flows   # whose mass P2G scatters to grid_mf
+    eng.field_rule = core_fields.field_rule() if eng.fields and contact == "mixed" else 8 if eng.rigid_a else 0
+    eng.mf_bodies = (wp.array(np.asarray(rigid_mask(view.materials)).astype(np.int32), dtype=wp.int32, device=d)
+                     if eng.rigid_a else eng.flows)   # whose mass P2G scatters to grid_mf
     eng.flow_touch_on = bool(eng.fields and flow_touch(view))   # the flowing body's touch (pair_touch.py)
     # round 75: its level per body, the point's surface at B's (gasp_core.mpm.flow_reach.flow_levels)
     eng.flow_level = wp.array(flow_levels(view) if eng.flow_touch_on else np.zeros(1), dtype=Ft, device=d)
@@ -360,7 +361,8 @@ def field_launches(eng, Ft) -> list:
     old = [wp.launch(build_field_old(Ft), dim=sweep[1], device=d, record_cmd=True, inputs=[
         eng.grid_mv0, eng.grid_v0, ng, *sweep])] if eng.field_flip else []   # round 59: AFLIP's old velocity per field
     shared = [wp.launch(build_field_shared(Ft), dim=sweep[1], device=d, record_cmd=True, inputs=[
-        eng.grid_mv, eng.grid_sv, eng.grid_dv, ng, eng.shared_nodes, eng.n_shared, *sweep])]   # round 63
+        eng.grid_mv, eng.grid_sv, eng.grid_dv, ng, eng.shared_nodes, eng.n_shared, eng.grid_mf, eng.rigid_rule,
+        *sweep])]   # round 63; round 82: grid_mf per node (rigid_node_rule)
     flow = box_launches(eng, Ft) + grid_box_launches(eng, Ft) + flow   # round 64: the boxes first (field_nodes.py)
     return flow + old + shared + [wp.launch(contact, dim=shared_threads(eng), device=d, record_cmd=True, inputs=[
                 eng.grid_mv, eng.grid_sv, eng.grid_dv, ng, Ft(eng.field_mu), eng.ground, eng.grid_vf,

@@ -90,9 +90,8 @@ def build_field_friction(Ft):
     the mean velocity (m/s; its budget is field B's points', as only the bodies that do not flow take the particle
     contact in a ``"mixed"`` scene; round 81: where field A is rigid, ``RIGID_A_FRICTION``, ``f`` A's mass fraction and
     ``rule`` 8) given to field B alone (``B_FRICTION``): A's offset less ``dv``, B's plus
-    ``dv f / (1 - f)``, so A keeps its velocity and B takes the momentum ``m dv``; ``on`` 2 (round 82, ``rule`` bit
-    16: field B rigid, ``gasp_core.mpm.rigid_a.rigid_friction_side``) the mirror, to field A alone: B's offset less
-    ``dv``, A's plus ``dv (1 - f) / f``. ``pc_friction(vel, m, f, node,
+    ``dv f / (1 - f)``, so A keeps its velocity and B takes ``m dv``; ``on`` 2 (round 82, ``f`` < 0: B rigid at the
+    node, ``field_nodes.rigid_side_mass``) to A alone: B's offset less ``dv``, A's plus ``dv (1 - f) / f``. ``pc_friction(vel, m, f, node,
     grid_fb, colc, grid_fn, grid_fv, grid_dv, lo, hi, dx, wall_in, ground, n_grid, ground_touch, n_walls, rule)``: the
     grid update's friction (:func:`build_contact_friction`) on the mean ``vel`` or B's own, then ``field_friction``;
     returns the node's new mean velocity (m/s). ``keep_fraction(grid_mf, grid_fbody, grid_dv, node, f, lo, hi, dx,
@@ -135,7 +134,8 @@ def build_field_friction(Ft):
                     grid_fn: wp.array(dtype=vec3), grid_fv: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3),
                     lo: vec3, hi: vec3, dx: Ft, wall_in: Ft, ground: wp.array(dtype=vec3), n_grid: int,
                     ground_touch: wp.array(dtype=wp.int32), n_walls: int, rule: int):
-        on = field_node(grid_dv, node, f, lo, hi, dx, wall_in, ground, n_grid, ground_touch, n_walls, rule)
+        fa = wp.abs(f)   # round 82: f < 0, A's mass fraction where field B is rigid (field_nodes.rigid_side_mass)
+        on = field_node(grid_dv, node, fa, lo, hi, dx, wall_in, ground, n_grid, ground_touch, n_walls, rule)
         out = vel
         if on != 0 and (rule / 2) % 2 != 0:   # on field B's own velocity and mass (B_OWN_FRICTION)
             vb = vel + grid_dv[grid_dv.shape[0] / 2 + node]
@@ -143,9 +143,9 @@ def build_field_friction(Ft):
                                                           grid_fv) - vb)
         else:
             out = contact_friction(vel, m, node, grid_fb, colc, grid_fn, grid_fv)
-        if on != 0 and (rule / 16) % 2 != 0:
+        if on != 0 and f < Ft(0.0):
             on = int(2)
-        field_friction(grid_dv, node, out - vel, f, on)
+        field_friction(grid_dv, node, out - vel, fa, on)
         return out
 
     @wp.func
