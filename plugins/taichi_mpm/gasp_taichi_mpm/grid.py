@@ -375,7 +375,7 @@ class GridUpdate(GroundTouch):
             if ti.static(self.mixed):
                 f = self.grid_mf[I] / ti.max(acc[3], 1e-30)
                 self.grid_mf[I] = 0.0
-            fr = f   # the friction's fraction (fields.py): round 81, a rigid field A's mass fraction (boundaries: 0)
+            fr = f   # the friction's fraction: rounds 81-82, A's mass fraction signed by its side (field_ground.py)
             if ti.static(self.rigid_a):
                 fr = self.grid_mf[I] / ti.max(acc[3], 1e-30)
                 self.grid_mf[I] = 0.0
