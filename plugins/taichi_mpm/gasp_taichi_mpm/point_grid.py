@@ -28,6 +28,7 @@ class PointGrid(RollGrid):
     pg_hascyl = False
     rg_turn = 1
     rg_sweeps = 4
+    rg_dom = 1
 
     def allocate_grid(self, points) -> None:
         from gasp_core.mpm import rigid_sdf
@@ -51,6 +52,7 @@ class PointGrid(RollGrid):
         self.pg_cyl.from_numpy(np.asarray(points.get("cylinder", np.zeros((ns, 5))), np.float64).reshape(ns, 5))
         self.rg_sweeps = int(roll.CYL_SWEEPS)
         self.rg_turn = int(roll.CYL_TURN)
+        self.rg_dom = int(roll.DOMAIN)   # round 83: the point read as its domain (roll_grid.rg_domain)
         self.pg_hascyl = bool(np.asarray(points.get("cylinder", np.zeros((ns, 5))))[:, 0].any())
         self.pg_pf = self.pg_roll and bool(roll.PATCH_FRICTION)
         self.pg_fmul = 0.0 if self.pg_pf else 1.0   # the normal passes frictionless under the patch friction
@@ -124,9 +126,9 @@ class PointGrid(RollGrid):
                                 nb = (R @ g).normalized()
                                 dlt = q
                 if ti.static(self.pg_roll):   # round 70: a sphere's exact patch distance (roll_grid.py)
-                    best, sb, nb, dlt = self.rg_sphere(xp, base, fx, w, f, skin, best, sb, nb, dlt)
+                    best, sb, nb, dlt = self.rg_sphere(p, xp, base, fx, w, f, skin, best, sb, nb, dlt)
                     if ti.static(self.pg_hascyl):   # round 72: the cylinders' (roll_grid.py)
-                        best, sb, nb, dlt = self.rg_cylinder(xp, base, fx, w, f, skin, best, sb, nb, dlt)
+                        best, sb, nb, dlt = self.rg_cylinder(p, xp, base, fx, w, f, skin, best, sb, nb, dlt)
                 self.pc_x[p] = dlt
                 if sb >= 0:
                     v = ti.Vector.zero(self.real, 3)

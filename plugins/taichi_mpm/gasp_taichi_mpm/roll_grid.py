@@ -54,7 +54,30 @@ class RollGrid:
         return has, t1, t2
 
     @ti.func
-    def rg_sphere(self, xp, base, fx, w, f, skin, best, sb, nb, dlt):
+    def rg_domain(self, p, xp, a, c, e):
+        """Round 83 (``gasp_core.mpm.roll_contact.domain_point``; warp_mpm's ``roll_shape.domain_near``): the offset
+        of the point of point ``p``'s domain (``xp + sum u_k g_k``, ``|u_k| <= a``, ``g_k`` the unit ``F e_k``) nearest the point ``c`` (``e``
+        zero) or the line through ``c`` along the unit ``e``: ``rg_sweeps`` sweeps of coordinate descent."""
+        G = ti.cast(self.F[p], ti.f64)
+        for k in ti.static(range(3)):   # the fill's axes carried by F, each of the domain's half-size
+            n = ti.sqrt(G[0, k] ** 2 + G[1, k] ** 2 + G[2, k] ** 2)
+            if n > 0.0:
+                for i in ti.static(range(3)):
+                    G[i, k] = G[i, k] / n
+        b = xp - c
+        b = b - b.dot(e) * e
+        P = G - e.outer_product(e) @ G
+        u = ti.Vector.zero(ti.f64, 3)
+        for _ in range(self.rg_sweeps):
+            for k in ti.static(range(3)):
+                g = ti.Vector([P[0, k], P[1, k], P[2, k]])
+                if g.dot(g) > 1.0e-12:
+                    r = b + P @ u - g * u[k]
+                    u[k] = ti.min(ti.max(-g.dot(r) / g.dot(g), -a), a)
+        return G @ u
+
+    @ti.func
+    def rg_sphere(self, p, xp, base, fx, w, f, skin, best, sb, nb, dlt):
         """``pg_mark``'s read of the round bodies that are spheres (``pg_sph``): the soft point at ``xp`` as its
         patch (its field ``f``'s outward normal from the node masses ``pc_m``), the least distance over it exactly
         (warp_mpm's ``pg_mark``); ``(best, sb, nb, dlt)`` where nearer than ``best``."""
@@ -65,13 +88,18 @@ class RollGrid:
             if self.rc_pt[s] != 0 and self.pg_sph[s] > 0.0 and (xp - c).norm() < self.pg_sph[s] + skin + \
                     6.0 * pm:
                 q = ti.Vector.zero(ti.f64, 3)
-                has, t1, t2 = self.rg_frame(base, fx, w, f)
-                if has != 0 and pm > 0.0:
-                    q = ti.min(ti.max((c - xp).dot(t1), -pm), pm) * t1 + ti.min(ti.max((c - xp).dot(t2),
-                                                                                       -pm), pm) * t2
+                lift = ti.cast(0.0, ti.f64)
+                if ti.static(self.rg_dom != 0):   # round 83: the point as its domain, compared as a face's patch
+                    q = self.rg_domain(p, xp, pm, c, ti.Vector.zero(ti.f64, 3))
+                    lift = pm
+                else:
+                    has, t1, t2 = self.rg_frame(base, fx, w, f)
+                    if has != 0 and pm > 0.0:
+                        q = ti.min(ti.max((c - xp).dot(t1), -pm), pm) * t1 + ti.min(ti.max((c - xp).dot(t2),
+                                                                                           -pm), pm) * t2
                 rq = xp + q - c
-                if rq.norm() - self.pg_sph[s] < b_out and rq.norm() > 0.0:
-                    b_out = rq.norm() - self.pg_sph[s]
+                if rq.norm() - self.pg_sph[s] + lift < b_out and rq.norm() > 0.0:
+                    b_out = rq.norm() - self.pg_sph[s] + lift
                     s_out = s
                     n_out = rq.normalized()
                     d_out = q
@@ -80,7 +108,7 @@ class RollGrid:
         return b_out, s_out, n_out, d_out
 
     @ti.func
-    def rg_cylinder(self, xp, base, fx, w, f, skin, best, sb, nb, dlt):
+    def rg_cylinder(self, p, xp, base, fx, w, f, skin, best, sb, nb, dlt):
         """Round 72: ``pg_mark``'s read of the solid cylinders (``pg_cyl``: radius, half-length, rest-frame axis; the
         axis turned by the body's rotation): the patch's point nearest the axis's line (``CYL_SWEEPS`` sweeps of
         coordinate descent), the capped cylinder's signed distance and normal there, the arm at its surface point
@@ -98,16 +126,21 @@ class RollGrid:
                 e = (Rb @ ti.Vector([self.pg_cyl[s, 2], self.pg_cyl[s, 3], self.pg_cyl[s, 4]])).normalized()
                 d = xp - c
                 q = ti.Vector.zero(ti.f64, 3)
-                has, t1, t2 = self.rg_frame(base, fx, w, f)
-                if has != 0 and pm > 0.0:
-                    a1, a2, b = t1 - t1.dot(e) * e, t2 - t2.dot(e) * e, d - d.dot(e) * e
-                    u, v = ti.cast(0.0, ti.f64), ti.cast(0.0, ti.f64)
-                    for _ in range(self.rg_sweeps):
-                        if a1.dot(a1) > 1.0e-12:
-                            u = ti.min(ti.max(-a1.dot(b + v * a2) / a1.dot(a1), -pm), pm)
-                        if a2.dot(a2) > 1.0e-12:
-                            v = ti.min(ti.max(-a2.dot(b + u * a1) / a2.dot(a2), -pm), pm)
-                    q = u * t1 + v * t2
+                lift = ti.cast(0.0, ti.f64)
+                if ti.static(self.rg_dom != 0):   # round 83: the point as its domain, compared as a face's patch
+                    q = self.rg_domain(p, xp, pm, c, e)
+                    lift = pm
+                else:
+                    has, t1, t2 = self.rg_frame(base, fx, w, f)
+                    if has != 0 and pm > 0.0:
+                        a1, a2, b = t1 - t1.dot(e) * e, t2 - t2.dot(e) * e, d - d.dot(e) * e
+                        u, v = ti.cast(0.0, ti.f64), ti.cast(0.0, ti.f64)
+                        for _ in range(self.rg_sweeps):
+                            if a1.dot(a1) > 1.0e-12:
+                                u = ti.min(ti.max(-a1.dot(b + v * a2) / a1.dot(a1), -pm), pm)
+                            if a2.dot(a2) > 1.0e-12:
+                                v = ti.min(ti.max(-a2.dot(b + u * a1) / a2.dot(a2), -pm), pm)
+                        q = u * t1 + v * t2
                 y = d + q
                 z = y.dot(e)
                 rr = y - z * e
@@ -121,8 +154,8 @@ class RollGrid:
                     n = (dr * er + dz * ez) / phi
                 elif dr >= dz:
                     phi, n = dr, er
-                if phi < b_out:
-                    b_out, s_out, n_out, d_out = phi, s, n, q
+                if phi + lift < b_out:
+                    b_out, s_out, n_out, d_out = phi + lift, s, n, q
                     if ti.static(self.pg_sarm != 0):   # the arm to the cylinder's surface point
                         d_out = q - phi * n
         return b_out, s_out, n_out, d_out

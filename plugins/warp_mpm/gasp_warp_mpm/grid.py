@@ -139,8 +139,8 @@ def build_field_friction(Ft):
         out = vel
         if on != 0 and (rule / 2) % 2 != 0:   # on field B's own velocity and mass (B_OWN_FRICTION)
             vb = vel + grid_dv[grid_dv.shape[0] / 2 + node]
-            out = vel + (Ft(1.0) - f) * (contact_friction(vb, (Ft(1.0) - f) * m, node, grid_fb, colc, grid_fn,
-                                                          grid_fv) - vb)
+            out = vel + (Ft(1.0) - fa) * (contact_friction(vb, (Ft(1.0) - fa) * m, node, grid_fb, colc, grid_fn,
+                                                           grid_fv) - vb)
         else:
             out = contact_friction(vel, m, node, grid_fb, colc, grid_fn, grid_fv)
         if on != 0 and f < Ft(0.0):

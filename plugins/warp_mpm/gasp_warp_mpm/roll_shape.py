@@ -54,7 +54,14 @@ def cyl_patch(xp: vec3d, m: vec3d, patch: wp.float64, c: vec3d, rot: mat33d, cyl
             if wp.dot(a2, a2) > wp.float64(1.0e-12):
                 v = cyl_clamp(-wp.dot(a2, b + u * a1) / wp.dot(a2, a2), -patch, patch)
         q = u * t1 + v * t2
-    y = d + q
+    phi, n = cyl_at(d + q, e, R, h)
+    return phi, n, q
+
+
+@wp.func
+def cyl_at(y: vec3d, e: vec3d, R: wp.float64, h: wp.float64):
+    """``(phi, n)``: the solid capped cylinder's signed distance and outward normal at ``y`` (the point less its
+    centre; unit axis ``e``, radius ``R``, half-length ``h``; ``roll_contact.cylinder_at``)."""
     z = wp.dot(y, e)
     rr = y - z * e
     rho = wp.length(rr)
@@ -72,6 +79,46 @@ def cyl_patch(xp: vec3d, m: vec3d, patch: wp.float64, c: vec3d, rot: mat33d, cyl
     elif dr >= dz:
         phi = dr
         n = er
+    return phi, n
+
+
+@wp.func
+def domain_near(xp: vec3d, Fp: mat33d, a: wp.float64, c: vec3d, e: vec3d, sweeps: int):
+    """Round 83 (``gasp_core.mpm.roll_contact.domain_point``): the offset of the point of a soft point's domain
+    (``xp + sum u_k g_k``, ``|u_k| <= a``, ``g_k`` the unit ``F e_k``) nearest the point ``c`` (``e`` zero) or the
+    line through ``c`` along the unit ``e``: ``sweeps`` sweeps of coordinate descent."""
+    g0 = vec3d(Fp[0, 0], Fp[1, 0], Fp[2, 0])
+    g1 = vec3d(Fp[0, 1], Fp[1, 1], Fp[2, 1])
+    g2 = vec3d(Fp[0, 2], Fp[1, 2], Fp[2, 2])
+    g0 = wp.normalize(g0)
+    g1 = wp.normalize(g1)
+    g2 = wp.normalize(g2)
+    b = xp - c
+    b = b - wp.dot(b, e) * e
+    p0 = g0 - wp.dot(g0, e) * e
+    p1 = g1 - wp.dot(g1, e) * e
+    p2 = g2 - wp.dot(g2, e) * e
+    u0 = wp.float64(0.0)
+    u1 = wp.float64(0.0)
+    u2 = wp.float64(0.0)
+    for _ in range(sweeps):
+        if wp.dot(p0, p0) > wp.float64(1.0e-12):
+            u0 = cyl_clamp(-wp.dot(p0, b + u1 * p1 + u2 * p2) / wp.dot(p0, p0), -a, a)
+        if wp.dot(p1, p1) > wp.float64(1.0e-12):
+            u1 = cyl_clamp(-wp.dot(p1, b + u0 * p0 + u2 * p2) / wp.dot(p1, p1), -a, a)
+        if wp.dot(p2, p2) > wp.float64(1.0e-12):
+            u2 = cyl_clamp(-wp.dot(p2, b + u0 * p0 + u1 * p1) / wp.dot(p2, p2), -a, a)
+    return u0 * g0 + u1 * g1 + u2 * g2
+
+
+@wp.func
+def cyl_domain(xp: vec3d, Fp: mat33d, patch: wp.float64, c: vec3d, rot: mat33d, cyl: wp.array(dtype=wp.float64),
+               s: int, sweeps: int):
+    """Round 83: :func:`cyl_patch` with the point read as its domain (:func:`domain_near`) for the patch."""
+    o = NC * s
+    e = wp.normalize(rot * vec3d(cyl[o + 2], cyl[o + 3], cyl[o + 4]))
+    q = domain_near(xp, Fp, patch, c, e, sweeps)
+    phi, n = cyl_at(xp - c + q, e, cyl[o], cyl[o + 1])
     return phi, n, q
 
 
@@ -96,20 +143,61 @@ def cyl_near(xp: vec3d, c: vec3d, cyl: wp.array(dtype=wp.float64), s: int, skin:
 
 @wp.func
 def cyl_take(xp: vec3d, m: vec3d, patch: wp.float64, c: vec3d, rot: mat33d, cyl: wp.array(dtype=wp.float64), s: int,
-             sweeps: int, sarm: int, best: wp.float64, sb: int, nb: vec3d, dlt: vec3d):
+             sweeps: int, sarm: int, best: wp.float64, sb: int, nb: vec3d, dlt: vec3d, Fp: mat33d, dom: int):
     """``point_grid.pg_mark``'s read of slot ``s``'s cylinder: ``(best, sb, nb, dlt)`` its patch distance, slot,
     normal and the arm (``sarm`` 1: to the cylinder's surface point along the normal; 0, a broken variant: the patch's
-    point) where nearer than ``best``, else as given."""
-    cd, cn, q = cyl_patch(xp, m, patch, c, rot, cyl, s, sweeps)
+    point) where nearer than ``best``, else as given. Round 83, ``dom`` 1 (``roll_contact.DOMAIN``): the point read
+    as its domain (``F`` ``Fp``; :func:`cyl_domain`), its distance compared as the patch's through its centre
+    (plus ``patch``: a face's domain lies that much nearer)."""
+    mm = m
+    if dom != 0:
+        mm = vec3d(wp.float64(0.0))   # no patch: cyl_domain's read below
+    cd, cn, q = cyl_patch(xp, mm, patch, c, rot, cyl, s, sweeps)
+    if dom != 0:
+        cd, cn, q = cyl_domain(xp, Fp, patch, c, rot, cyl, s, sweeps)
     b_out = best
     s_out = sb
     n_out = nb
     d_out = dlt
-    if cd < best:
-        b_out = cd
+    lift = wp.float64(0.0)
+    if dom != 0:
+        lift = patch
+    if cd + lift < best:
+        b_out = cd + lift
         s_out = s
         n_out = cn
         d_out = q
         if sarm != 0:
             d_out = q - cd * cn
+    return b_out, s_out, n_out, d_out
+
+
+@wp.func
+def sph_take(xp: vec3d, m: vec3d, Fp: mat33d, dom: int, patch: wp.float64, c: vec3d, R: wp.float64, s: int,
+             sweeps: int, sarm: int, best: wp.float64, sb: int, nb: vec3d, dlt: vec3d):
+    """``point_grid.pg_mark``'s read of slot ``s``'s sphere (centre ``c``, radius ``R``; round 70): ``(best, sb, nb,
+    dlt)`` where nearer than ``best``, else as given. ``dom`` 1 (round 83, ``roll_contact.DOMAIN``): the point read as
+    its domain (``F`` ``Fp``, :func:`domain_near`), compared as a face's patch through its centre (plus ``patch``);
+    0, the broken variant: the square patch of normal ``m`` (rounds 70-72). ``sarm`` 1: the arm to the sphere's
+    surface point (0, a broken variant: the patch's point)."""
+    q = vec3d(wp.float64(0.0))
+    lift = wp.float64(0.0)
+    if dom != 0:
+        q = domain_near(xp, Fp, patch, c, vec3d(wp.float64(0.0)), sweeps)
+        lift = patch
+    elif wp.length(m) > wp.float64(0.0) and patch > wp.float64(0.0):
+        t1, t2 = patch_tangents(m)
+        q = cyl_clamp(wp.dot(c - xp, t1), -patch, patch) * t1 + cyl_clamp(wp.dot(c - xp, t2), -patch, patch) * t2
+    rq = xp + q - c
+    b_out = best
+    s_out = sb
+    n_out = nb
+    d_out = dlt
+    if wp.length(rq) - R + lift < best and wp.length(rq) > wp.float64(0.0):
+        b_out = wp.length(rq) - R + lift
+        s_out = s
+        n_out = wp.normalize(rq)
+        d_out = q
+        if sarm != 0:
+            d_out = c + R * n_out - xp
     return b_out, s_out, n_out, d_out
