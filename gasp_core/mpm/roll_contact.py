@@ -108,15 +108,17 @@ CYL_COVER = 1
 #: Round 72: the coordinate-descent sweeps of the patch's point nearest the cylinder's axis (:func:`cylinder_patch`).
 CYL_SWEEPS = 4
 #: Round 83 (``docs/rigid.md`` "Round 83: a soft body's edge under a round body"): 1: each soft point is read as its
-#: domain, the cube of half-size :data:`PATCH` cells along the fill's axes carried by its ``F`` (the parallelepiped of
-#: CPDI, Sadeghirad, Brannon & Burghardt 2011, IJNME 86; GIMP's particle domain, Bardenhagen & Kober 2004), and the
-#: round body's least distance over it is taken (:func:`domain_point`; each axis ``F e_k`` made unit: measured on the
-#: ball at n_grid 24, the stretch changes the roll by 0.2 points); a lattice's faces, edges and corners then read
-#: as the faces they are. 0: the broken variant, rounds 70-72's square patch normal to the grid's mass gradient,
+#: domain, the cube of half-size :data:`PATCH` cells along the fill's axes turned with its ``F`` (:func:`domain_axes`;
+#: GIMP's particle domain, Bardenhagen & Kober 2004, CMES 5; CPDI carries it as a parallelepiped, Sadeghirad, Brannon
+#: & Burghardt 2011, IJNME 86: measured on the ball at n_grid 24, ``F``'s stretch changes the roll by 0.2 points), and
+#: the round body's least distance over it is taken (:func:`domain_point`); a lattice's faces, edges and corners then
+#: read as the faces they are. 0: the broken variant, rounds 70-72's square patch normal to the grid's mass gradient,
 #: which the kernel spreads over 1.5 cells: within it of a face's edge the patches lean up into a body resting there
 #: (a rigid cylinder longer than the jelly slab under it was thrown 6-7 mm from rest and rolled 14-20 % slow at
 #: n_grid 24).
 DOMAIN = 1
+#: Round 83: the bisections of :func:`domain_point`'s nearest point to a line.
+DOMAIN_BISECT = 48
 #: A body is a sphere where its principal moments agree within this fraction and no point lies beyond the sphere of
 #: its volume by more than a point spacing.
 SPHERE_TOL = 0.05
@@ -165,34 +167,43 @@ def sphere_patch(x: np.ndarray, m: np.ndarray, a: float, c: np.ndarray, R: float
     return d - R, r / max(d, 1e-300), q
 
 
-def domain_point(x: np.ndarray, axes: np.ndarray, a: float, c: np.ndarray, e: np.ndarray | None = None,
-                 sweeps: int | None = None) -> np.ndarray:
+def domain_axes(F: np.ndarray) -> np.ndarray:
+    """Round 83: a soft point's domain axes (3, 3), columns: its ``F``'s columns (the fill's axes carried by its
+    deformation) made orthonormal by Gram-Schmidt in their order, the third ``g0 x g1`` (so the domain stays a cube of
+    the fill's size where ``F`` stretches it, or holds only the elastic part, as in the plastic models)."""
+    F = np.asarray(F, float)
+    g0 = F[:, 0] / max(np.linalg.norm(F[:, 0]), 1e-300)
+    g1 = F[:, 1] - (F[:, 1] @ g0) * g0
+    g1 = g1 / max(np.linalg.norm(g1), 1e-300)
+    return np.stack([g0, g1, np.cross(g0, g1)], axis=1)
+
+
+def domain_point(x: np.ndarray, F: np.ndarray, a: float, c: np.ndarray, e: np.ndarray | None = None) -> np.ndarray:
     """Round 83 (:data:`DOMAIN`): the offset ``q`` (3,) m of the point of a soft point's domain nearest the point
     ``c`` (``e`` None: a sphere's centre) or the line through ``c`` along the unit ``e`` (a cylinder's axis).
 
-    The domain is ``x + sum_k u_k g_k``, ``|u_k| <= a``, ``g_k`` the columns of ``axes`` (3, 3) made unit (the
-    point's ``F``: the fill's axes carried by its deformation, the identity at rest; unit, so the domain keeps the
-    fill's size where ``F`` holds only the elastic part, as in the plastic models), ``a`` its half-size, m. The distance squared to
-    the point or the line is a convex quadratic in ``u``: :data:`CYL_SWEEPS` sweeps (or ``sweeps``) of coordinate
-    descent from the centre, each coordinate clamped (exact in one sweep for orthogonal axes and a point).
+    The domain is the cube ``x + G u``, ``|u_k| <= a`` (``a`` its half-size, m; ``G`` :func:`domain_axes` of the
+    point's ``F``, (3, 3)). Nearest a point: ``u`` the clamp of the point's coordinates (exact). Nearest a line
+    ``b + t e'`` (coordinates ``G^T``): the squared distance from its point at ``t`` to the cube is convex in ``t``,
+    its derivative ``2 (l - clamp(l)) . e'`` non-decreasing, negative a half-diagonal before the line's point nearest
+    the cube's centre and positive as far after: :data:`DOMAIN_BISECT` bisections of it (exact to ``2^-48`` of the
+    cube's diagonal), then ``u`` the clamp of the line's point there.
     """
-    x, c, G = np.asarray(x, float), np.asarray(c, float), np.asarray(axes, float)
-    G = G / np.maximum(np.linalg.norm(G, axis=0), 1e-300)
-    b = x - c
-    Gp = G.copy()
-    if e is not None:
-        e = np.asarray(e, float)
-        b = b - (b @ e) * e
-        Gp = G - np.outer(e, e @ G)
-    u = np.zeros(3)
-    for _ in range(CYL_SWEEPS if sweeps is None else sweeps):
-        for k in range(3):
-            g = Gp[:, k]
-            gg = float(g @ g)
-            if gg > 1e-12:
-                r = b + Gp @ u - g * u[k]
-                u[k] = float(np.clip(-(g @ r) / gg, -a, a))
-    return G @ u
+    G = domain_axes(F)
+    b = G.T @ (np.asarray(c, float) - np.asarray(x, float))
+    if e is None:
+        return G @ np.clip(b, -a, a)
+    ep = G.T @ np.asarray(e, float)
+    t0 = -float(b @ ep)
+    lo, hi = t0 - np.sqrt(3.0) * a, t0 + np.sqrt(3.0) * a
+    for _ in range(DOMAIN_BISECT):
+        t = 0.5 * (lo + hi)
+        l = b + t * ep
+        if (l - np.clip(l, -a, a)) @ ep < 0.0:
+            lo = t
+        else:
+            hi = t
+    return G @ np.clip(b + 0.5 * (lo + hi) * ep, -a, a)
 
 
 def cylinder_at(y: np.ndarray, e: np.ndarray, R: float, h: float) -> tuple[float, np.ndarray]:

@@ -29,6 +29,7 @@ class PointGrid(RollGrid):
     rg_turn = 1
     rg_sweeps = 4
     rg_dom = 1
+    rg_bisect = 48
 
     def allocate_grid(self, points) -> None:
         from gasp_core.mpm import rigid_sdf
@@ -53,6 +54,7 @@ class PointGrid(RollGrid):
         self.rg_sweeps = int(roll.CYL_SWEEPS)
         self.rg_turn = int(roll.CYL_TURN)
         self.rg_dom = int(roll.DOMAIN)   # round 83: the point read as its domain (roll_grid.rg_domain)
+        self.rg_bisect = int(roll.DOMAIN_BISECT)
         self.pg_hascyl = bool(np.asarray(points.get("cylinder", np.zeros((ns, 5))))[:, 0].any())
         self.pg_pf = self.pg_roll and bool(roll.PATCH_FRICTION)
         self.pg_fmul = 0.0 if self.pg_pf else 1.0   # the normal passes frictionless under the patch friction

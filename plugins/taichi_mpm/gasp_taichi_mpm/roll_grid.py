@@ -56,25 +56,31 @@ class RollGrid:
     @ti.func
     def rg_domain(self, p, xp, a, c, e):
         """Round 83 (``gasp_core.mpm.roll_contact.domain_point``; warp_mpm's ``roll_shape.domain_near``): the offset
-        of the point of point ``p``'s domain (``xp + sum u_k g_k``, ``|u_k| <= a``, ``g_k`` the unit ``F e_k``) nearest the point ``c`` (``e``
-        zero) or the line through ``c`` along the unit ``e``: ``rg_sweeps`` sweeps of coordinate descent."""
-        G = ti.cast(self.F[p], ti.f64)
-        for k in ti.static(range(3)):   # the fill's axes carried by F, each of the domain's half-size
-            n = ti.sqrt(G[0, k] ** 2 + G[1, k] ** 2 + G[2, k] ** 2)
-            if n > 0.0:
-                for i in ti.static(range(3)):
-                    G[i, k] = G[i, k] / n
-        b = xp - c
-        b = b - b.dot(e) * e
-        P = G - e.outer_product(e) @ G
-        u = ti.Vector.zero(ti.f64, 3)
-        for _ in range(self.rg_sweeps):
-            for k in ti.static(range(3)):
-                g = ti.Vector([P[0, k], P[1, k], P[2, k]])
-                if g.dot(g) > 1.0e-12:
-                    r = b + P @ u - g * u[k]
-                    u[k] = ti.min(ti.max(-g.dot(r) / g.dot(g), -a), a)
-        return G @ u
+        of the point of point ``p``'s domain (the cube ``xp + G u``, ``|u_k| <= a``, ``G`` its ``F``'s columns made
+        orthonormal) nearest the point ``c`` (``e`` zero: the clamp) or the line through ``c`` along the unit ``e``
+        (``rg_bisect`` bisections of the convex distance's derivative along the line)."""
+        Fp = ti.cast(self.F[p], ti.f64)
+        g0 = ti.Vector([Fp[0, 0], Fp[1, 0], Fp[2, 0]]).normalized()
+        g1 = ti.Vector([Fp[0, 1], Fp[1, 1], Fp[2, 1]])
+        g1 = (g1 - g1.dot(g0) * g0).normalized()
+        g2 = g0.cross(g1)
+        d = c - xp
+        b = ti.Vector([g0.dot(d), g1.dot(d), g2.dot(d)])
+        ep = ti.Vector([g0.dot(e), g1.dot(e), g2.dot(e)])
+        if e.norm() > 0.0:
+            t0 = -b.dot(ep)
+            h = ti.sqrt(3.0) * a
+            lo, hi = t0 - h, t0 + h
+            for _ in range(self.rg_bisect):
+                t = 0.5 * (lo + hi)
+                l = b + t * ep
+                if (l - ti.min(ti.max(l, -a), a)).dot(ep) < 0.0:
+                    lo = t
+                else:
+                    hi = t
+            b = b + 0.5 * (lo + hi) * ep
+        u = ti.min(ti.max(b, -a), a)
+        return u[0] * g0 + u[1] * g1 + u[2] * g2
 
     @ti.func
     def rg_sphere(self, p, xp, base, fx, w, f, skin, best, sb, nb, dlt):

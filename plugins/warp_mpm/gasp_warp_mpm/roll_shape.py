@@ -6,10 +6,14 @@ This module must not use ``from __future__ import annotations`` (the warp module
 """
 import warp as wp
 
+from gasp_core.mpm.roll_contact import DOMAIN_BISECT
+
 from .rigid_pairs import mat33d, vec3d
 
 #: The floats of a slot's cylinder in ``pg_cyl``: radius, half-length, the axis in the body's rest frame.
 NC = wp.constant(5)
+#: Round 83: :func:`domain_near`'s bisections (``gasp_core.mpm.roll_contact.DOMAIN_BISECT``, read at import).
+BISECT = wp.constant(int(DOMAIN_BISECT))
 
 
 @wp.func
@@ -83,32 +87,33 @@ def cyl_at(y: vec3d, e: vec3d, R: wp.float64, h: wp.float64):
 
 
 @wp.func
-def domain_near(xp: vec3d, Fp: mat33d, a: wp.float64, c: vec3d, e: vec3d, sweeps: int):
-    """Round 83 (``gasp_core.mpm.roll_contact.domain_point``): the offset of the point of a soft point's domain
-    (``xp + sum u_k g_k``, ``|u_k| <= a``, ``g_k`` the unit ``F e_k``) nearest the point ``c`` (``e`` zero) or the
-    line through ``c`` along the unit ``e``: ``sweeps`` sweeps of coordinate descent."""
-    g0 = vec3d(Fp[0, 0], Fp[1, 0], Fp[2, 0])
+def domain_near(xp: vec3d, Fp: mat33d, a: wp.float64, c: vec3d, e: vec3d, bisect: int):
+    """Round 83 (``gasp_core.mpm.roll_contact.domain_point``, the reference): the offset of the point of a soft
+    point's domain (the cube ``xp + G u``, ``|u_k| <= a``, ``G`` its ``F``'s columns made orthonormal,
+    ``domain_axes``) nearest the point ``c`` (``e`` zero: the clamp) or the line through ``c`` along the unit ``e``
+    (``bisect`` bisections of the convex distance's derivative along the line)."""
+    g0 = wp.normalize(vec3d(Fp[0, 0], Fp[1, 0], Fp[2, 0]))
     g1 = vec3d(Fp[0, 1], Fp[1, 1], Fp[2, 1])
-    g2 = vec3d(Fp[0, 2], Fp[1, 2], Fp[2, 2])
-    g0 = wp.normalize(g0)
-    g1 = wp.normalize(g1)
-    g2 = wp.normalize(g2)
-    b = xp - c
-    b = b - wp.dot(b, e) * e
-    p0 = g0 - wp.dot(g0, e) * e
-    p1 = g1 - wp.dot(g1, e) * e
-    p2 = g2 - wp.dot(g2, e) * e
-    u0 = wp.float64(0.0)
-    u1 = wp.float64(0.0)
-    u2 = wp.float64(0.0)
-    for _ in range(sweeps):
-        if wp.dot(p0, p0) > wp.float64(1.0e-12):
-            u0 = cyl_clamp(-wp.dot(p0, b + u1 * p1 + u2 * p2) / wp.dot(p0, p0), -a, a)
-        if wp.dot(p1, p1) > wp.float64(1.0e-12):
-            u1 = cyl_clamp(-wp.dot(p1, b + u0 * p0 + u2 * p2) / wp.dot(p1, p1), -a, a)
-        if wp.dot(p2, p2) > wp.float64(1.0e-12):
-            u2 = cyl_clamp(-wp.dot(p2, b + u0 * p0 + u1 * p1) / wp.dot(p2, p2), -a, a)
-    return u0 * g0 + u1 * g1 + u2 * g2
+    g1 = wp.normalize(g1 - wp.dot(g1, g0) * g0)
+    g2 = wp.cross(g0, g1)
+    d = c - xp
+    b = vec3d(wp.dot(g0, d), wp.dot(g1, d), wp.dot(g2, d))
+    ep = vec3d(wp.dot(g0, e), wp.dot(g1, e), wp.dot(g2, e))
+    if wp.length(e) > wp.float64(0.0):
+        t0 = -wp.dot(b, ep)
+        h = wp.sqrt(wp.float64(3.0)) * a
+        lo = t0 - h
+        hi = t0 + h
+        for _ in range(bisect):
+            t = wp.float64(0.5) * (lo + hi)
+            l = b + t * ep
+            k = vec3d(cyl_clamp(l[0], -a, a), cyl_clamp(l[1], -a, a), cyl_clamp(l[2], -a, a))
+            if wp.dot(l - k, ep) < wp.float64(0.0):
+                lo = t
+            else:
+                hi = t
+        b = b + wp.float64(0.5) * (lo + hi) * ep
+    return cyl_clamp(b[0], -a, a) * g0 + cyl_clamp(b[1], -a, a) * g1 + cyl_clamp(b[2], -a, a) * g2
 
 
 @wp.func
@@ -117,7 +122,7 @@ def cyl_domain(xp: vec3d, Fp: mat33d, patch: wp.float64, c: vec3d, rot: mat33d, 
     """Round 83: :func:`cyl_patch` with the point read as its domain (:func:`domain_near`) for the patch."""
     o = NC * s
     e = wp.normalize(rot * vec3d(cyl[o + 2], cyl[o + 3], cyl[o + 4]))
-    q = domain_near(xp, Fp, patch, c, e, sweeps)
+    q = domain_near(xp, Fp, patch, c, e, BISECT)
     phi, n = cyl_at(xp - c + q, e, cyl[o], cyl[o + 1])
     return phi, n, q
 
@@ -183,7 +188,7 @@ def sph_take(xp: vec3d, m: vec3d, Fp: mat33d, dom: int, patch: wp.float64, c: ve
     q = vec3d(wp.float64(0.0))
     lift = wp.float64(0.0)
     if dom != 0:
-        q = domain_near(xp, Fp, patch, c, vec3d(wp.float64(0.0)), sweeps)
+        q = domain_near(xp, Fp, patch, c, vec3d(wp.float64(0.0)), BISECT)
         lift = patch
     elif wp.length(m) > wp.float64(0.0) and patch > wp.float64(0.0):
         t1, t2 = patch_tangents(m)
