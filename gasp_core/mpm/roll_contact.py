@@ -76,7 +76,8 @@ STIFFNESS = 1.0
 #: PATCH_FRICTION 0 round 67's friction per point (measured: the same figures, docs/rigid.md); SURFACE_ARM 0 the
 #: contact's arm to the soft point's patch (a quarter cell under the slab's face) instead of the sphere's surface:
 #: friction then holds the ball's velocity at that depth, and the ball slips (n_grid 32, R 3 cm, mu 0.5: v 0.509,
-#: w R 0.455 at 0.09 s).
+#: w R 0.455 at 0.09 s; round 83, under :data:`DOMAIN`: the domain's point less ``PATCH`` cells along the normal, the
+#: same plane through the soft point's centre, as the domain's point lies on the face).
 EXACT = 1
 PATCH_FRICTION = 1
 SURFACE_ARM = 1

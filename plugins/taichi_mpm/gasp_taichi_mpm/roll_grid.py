@@ -111,6 +111,8 @@ class RollGrid:
                     d_out = q
                     if ti.static(self.pg_sarm != 0):   # the arm to the sphere's surface
                         d_out = c + self.pg_sph[s] * n_out - xp
+                    elif ti.static(self.rg_dom != 0):   # the broken variant's: a quarter cell under the face (round 83)
+                        d_out = q + lift * n_out
         return b_out, s_out, n_out, d_out
 
     @ti.func
@@ -164,6 +166,8 @@ class RollGrid:
                     b_out, s_out, n_out, d_out = phi + lift, s, n, q
                     if ti.static(self.pg_sarm != 0):   # the arm to the cylinder's surface point
                         d_out = q - phi * n
+                    elif ti.static(self.rg_dom != 0):   # the broken variant's: a quarter cell under the face (round 83)
+                        d_out = q + lift * n
         return b_out, s_out, n_out, d_out
 
     @ti.func

@@ -174,6 +174,8 @@ def cyl_take(xp: vec3d, m: vec3d, patch: wp.float64, c: vec3d, rot: mat33d, cyl:
         d_out = q
         if sarm != 0:
             d_out = q - cd * cn
+        elif dom != 0:   # the broken variant's arm: the patch through the point's centre, a quarter cell under the face
+            d_out = q + lift * cn
     return b_out, s_out, n_out, d_out
 
 
@@ -205,4 +207,6 @@ def sph_take(xp: vec3d, m: vec3d, Fp: mat33d, dom: int, patch: wp.float64, c: ve
         d_out = q
         if sarm != 0:
             d_out = c + R * n_out - xp
+        elif dom != 0:   # the broken variant's arm: the patch through the point's centre, a quarter cell under the face
+            d_out = q + lift * n_out
     return b_out, s_out, n_out, d_out
