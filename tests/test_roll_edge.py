@@ -142,7 +142,7 @@ def _family():
                 for R, L, w in CYLS:
                     yield pytest.param(engine, n_grid, "slope", (R, L, w), mu, id=f"{engine}-{n_grid}-cyl-R{R}-L{L}-w{w}-mu{mu}")
                 yield pytest.param(engine, n_grid, "two", (0.03, 0.18, 0.06), mu, id=f"{engine}-{n_grid}-two-slabs-mu{mu}")
-                for y in (0.04, 0.05, 0.06):
+                for y in (0.04, 0.05):   # y 6 cm, the centre over the edge, is a balance on a knife edge (docs)
                     yield pytest.param(engine, n_grid, "ball", (y,), mu, id=f"{engine}-{n_grid}-ball-y{y}-mu{mu}")
 
 
@@ -158,8 +158,9 @@ def _scene(engine, n_grid, kind, args, mu, on=True):
 def test_the_edge_family(engine, n_grid, kind, args, mu):
     """Round bodies where the slab's face ends under them, n_grid 24 and 32, both engines: cylinders over one slab's
     edges (:data:`roll_edge83.CYLS`), one cylinder across two slabs 4 cm apart (three bodies), a ball R 3 cm released
-    1-3 cm from the edge and on it; each rolls (mu 0.5) and slips (mu 0.05) within 5 % of its closed form (measured at
-    n_grid 24 -1.2 to -5.0 %, ``benchmarks/results/roll_edge83.json``)."""
+    1 and 2 cm inside the edge (its footprint over it); each rolls (mu 0.5) and slips (mu 0.05) within 5 % of its
+    closed form (measured -1.6 to -4.98 %, the ball's slips at n_grid 24 the nearest, -4.88 and -4.98 %; both engines
+    the same to 0.1 point; ``benchmarks/results/roll_edge83.json``)."""
     _need(engine)
     r = _scene(engine, n_grid, kind, args, mu)
     assert _slope_ok(r), r
@@ -169,11 +170,11 @@ def test_the_edge_family(engine, n_grid, kind, args, mu):
 @pytest.mark.parametrize("engine", ENGINES)
 def test_the_edge_family_catches_the_patch_normal(engine):
     """The catch of :func:`test_the_edge_family`: with ``DOMAIN`` 0, at n_grid 24, the cylinder across two slabs, the
-    cylinder 18 cm long on the 16 cm slab and the ball on the edge each miss by more than 5 % (measured -21 %, -9.9 %
-    and -15 % rolling; the ball's slip -95 %)."""
+    cylinder 18 cm long on the 16 cm slab, the cylinder 12 cm long on the 8 cm slab slipping and the ball 1 cm inside
+    the edge each miss by more than 5 % (measured -20.6 %, -9.9 %, -6.5 % and -16.2 %)."""
     _need(engine)
-    cases = [("two", (0.03, 0.18, 0.06), 0.5), ("slope", (0.03, 0.18, 0.16), 0.5), ("ball", (0.06,), 0.5),
-             ("ball", (0.06,), 0.05)]
+    cases = [("two", (0.03, 0.18, 0.06), 0.5), ("slope", (0.03, 0.18, 0.16), 0.5), ("slope", (0.03, 0.12, 0.08), 0.05),
+             ("ball", (0.05,), 0.5)]
     for kind, args, mu in cases:
         r = _scene(engine, 24, kind, args, mu, on=False)
         assert not _slope_ok(r) and r["err"] < -0.05, (kind, args, mu, r)
