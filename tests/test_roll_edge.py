@@ -3,8 +3,8 @@
 patch normal to the grid's mass gradient, which the kernel spreads over 1.5 cells; within that of a face's edge the
 patches leaned up into the body. A cylinder longer than the slab under it was thrown 6-7 mm from rest and rolled
 14-20 % slow at n_grid 24, a ball over the edge 15-16 % slow (and slipped 95 % slow at mu 0.05 on it), two slabs under
-one cylinder 21 % slow. ``gasp_core.mpm.roll_contact.DOMAIN`` reads each point as its domain, the fill's cube carried
-by ``F`` (``domain_point``); ``DOMAIN`` 0 is the broken variant each check is shown to fail on.
+one cylinder 21 % slow. ``gasp_core.mpm.roll_contact.DOMAIN`` reads each point as its domain, its cube of the fill
+(``domain_point``); ``DOMAIN`` 0 is the broken variant each check is shown to fail on.
 
 Scenes: ``benchmarks/studies/roll_edge83.py`` (the slab and bodies of ``roll_neighbours.slab_setup``).
 """
@@ -24,27 +24,21 @@ DX24 = 0.48 / 24
 
 
 def _random_domains(n: int = 300):
-    """Random soft points, their ``F`` near the identity (stretch and shear up to 20 %, any rotation), and targets
-    near them (a centre, or a line through it along a random unit axis)."""
+    """Random soft points and targets near them (a centre, or a line through it along a random unit axis)."""
     rng = np.random.default_rng(83)
     out = []
     for _ in range(n):
-        A, _ = np.linalg.qr(rng.normal(size=(3, 3)))
-        F = A @ (np.eye(3) + rng.uniform(-0.2, 0.2, (3, 3)))
         x = rng.uniform(-0.01, 0.01, 3)
         c = x + rng.normal(0.0, 0.01, 3)
         e = rng.normal(size=3)
-        out.append((x, F, 0.005, c, e / np.linalg.norm(e)))
+        out.append((x, 0.005, c, e / np.linalg.norm(e)))
     return out
 
 
-def _brute(x, F, a, c, e, n=21):
-    """The least distance from the domain (``domain_axes``) to the point or the line, by search."""
-    from gasp_core.mpm.roll_contact import domain_axes
-    G = domain_axes(F)
+def _brute(x, a, c, e, n=21):
+    """The least distance from the cube to the point or the line, by a search of ``n^3`` points."""
     u = np.linspace(-a, a, n)
-    U = np.stack(np.meshgrid(u, u, u), -1).reshape(-1, 3)
-    d = x + U @ G.T - c
+    d = x + np.stack(np.meshgrid(u, u, u), -1).reshape(-1, 3) - c
     if e is not None:
         d = d - np.outer(d @ e, e)
     return float(np.linalg.norm(d, axis=1).min())
@@ -52,24 +46,22 @@ def _brute(x, F, a, c, e, n=21):
 
 @pytest.mark.parametrize("bisect,ok", [(48, True), (0, False)])
 def test_the_domain_point_is_the_least_over_the_domain(bisect, ok):
-    """``domain_point`` finds its domain's point nearest a centre and nearest a line, against a 21^3 search of the
-    cube (step 0.5 mm, so the search reads up to 0.4 mm over the least), on 300 random domains: inside the cube,
-    orthonormal axes, never farther than the search (by 1e-9 m); the catch, no bisection (the line's point nearest
-    the cube's centre, then clamped), is farther on some."""
+    """``domain_point`` finds its cube's point nearest a centre and nearest a line, against a 21^3 search of the cube
+    (step 0.5 mm, so the search reads up to 0.4 mm over the least), on 300 random domains: inside the cube and never
+    farther than the search (by 1e-9 m); the catch, no bisection (the line's point nearest the cube's centre, then
+    clamped), is farther on some."""
     import gasp_core.mpm.roll_contact as roll
     worst = 0.0
     old = roll.DOMAIN_BISECT
     roll.DOMAIN_BISECT = bisect
     try:
-        for x, F, a, c, e in _random_domains():
-            G = roll.domain_axes(F)
-            assert np.allclose(G.T @ G, np.eye(3), atol=1e-12)
+        for x, a, c, e in _random_domains():
             for ax in (None, e):
-                q = roll.domain_point(x, F, a, c, ax)
+                q = roll.domain_point(x, a, c, ax)
                 d = x + q - c
                 d = d - (d @ ax) * ax if ax is not None else d
-                worst = max(worst, float(np.linalg.norm(d)) - _brute(x, F, a, c, ax))
-                assert np.all(np.abs(G.T @ q) <= a + 1e-12)   # inside the domain
+                worst = max(worst, float(np.linalg.norm(d)) - _brute(x, a, c, ax))
+                assert np.all(np.abs(q) <= a + 1e-12)   # inside the domain
     finally:
         roll.DOMAIN_BISECT = old
     assert (worst < 1e-9) == ok, worst
@@ -81,26 +73,25 @@ def test_warp_domain_kernel_is_the_reference():
     _need("warp_mpm")
     import warp as wp
     from gasp_core.mpm.roll_contact import DOMAIN_BISECT, domain_point
-    from gasp_warp_mpm.rigid_pairs import mat33d, vec3d
+    from gasp_warp_mpm.rigid_pairs import vec3d
     from gasp_warp_mpm.roll_shape import domain_near
     wp.init()
 
     @wp.kernel(enable_backward=False, module="unique")
-    def k(xs: wp.array(dtype=vec3d), Fs: wp.array(dtype=mat33d), cs: wp.array(dtype=vec3d),
-          es: wp.array(dtype=vec3d), a: wp.float64, bisect: int, out: wp.array(dtype=vec3d)):
+    def k(xs: wp.array(dtype=vec3d), cs: wp.array(dtype=vec3d), es: wp.array(dtype=vec3d), a: wp.float64,
+          bisect: int, out: wp.array(dtype=vec3d)):
         i = wp.tid()
-        out[i] = domain_near(xs[i], Fs[i], a, cs[i], es[i], bisect)
+        out[i] = domain_near(xs[i], a, cs[i], es[i], bisect)
 
     D = _random_domains()
     for line in (False, True):
-        es = np.array([d[4] if line else np.zeros(3) for d in D])
-        arr = [wp.array(np.array(v, np.float64), dtype=t, device="cpu") for v, t in (
-            ([d[0] for d in D], vec3d), ([d[1] for d in D], mat33d), ([d[3] for d in D], vec3d), (es, vec3d))]
+        es = np.array([d[3] if line else np.zeros(3) for d in D])
+        arr = [wp.array(np.array(v, np.float64), dtype=vec3d, device="cpu") for v in ([d[0] for d in D],
+                                                                                      [d[2] for d in D], es)]
         out = wp.zeros(len(D), dtype=vec3d, device="cpu")
         wp.launch(k, dim=len(D), device="cpu", inputs=[*arr, 0.005, DOMAIN_BISECT, out])
-        got = out.numpy()
-        for g, d, e in zip(got, D, es):
-            ref = domain_point(d[0], d[1], d[2], d[3], e if line else None)
+        for g, d, e in zip(out.numpy(), D, es):
+            ref = domain_point(d[0], d[1], d[2], e if line else None)
             assert np.allclose(g, ref, atol=1e-12), (line, g, ref)
 
 

@@ -109,14 +109,15 @@ CYL_COVER = 1
 #: Round 72: the coordinate-descent sweeps of the patch's point nearest the cylinder's axis (:func:`cylinder_patch`).
 CYL_SWEEPS = 4
 #: Round 83 (``docs/rigid.md`` "Round 83: a soft body's edge under a round body"): 1: each soft point is read as its
-#: domain, the cube of half-size :data:`PATCH` cells along the fill's axes turned with its ``F`` (:func:`domain_axes`;
-#: GIMP's particle domain, Bardenhagen & Kober 2004, CMES 5; CPDI carries it as a parallelepiped, Sadeghirad, Brannon
-#: & Burghardt 2011, IJNME 86: measured on the ball at n_grid 24, ``F``'s stretch changes the roll by 0.2 points), and
-#: the round body's least distance over it is taken (:func:`domain_point`); a lattice's faces, edges and corners then
-#: read as the faces they are. 0: the broken variant, rounds 70-72's square patch normal to the grid's mass gradient,
-#: which the kernel spreads over 1.5 cells: within it of a face's edge the patches lean up into a body resting there
-#: (a rigid cylinder longer than the jelly slab under it was thrown 6-7 mm from rest and rolled 14-20 % slow at
-#: n_grid 24).
+#: domain, the cube of half-size :data:`PATCH` cells on the fill's axes (uGIMP's particle domain, fixed in size and
+#: orientation: Bardenhagen & Kober 2004, CMES 5, 477), and the round body's least distance over it is taken
+#: (:func:`domain_point`); a lattice's faces, edges and corners then read as the faces they are. Turned with each
+#: point's ``F`` (its columns made orthonormal), a cylinder resting on jelly at n_grid 64 swayed 4.4 mm (1.9 mm on
+#: the fill's axes, 1.6 mm before), so the domain is not turned; a soft body turned far from its rest reads its face
+#: as steps (up to ``(sqrt 2 - 1) a`` at 45 degrees). 0: the broken variant, rounds 70-72's square patch normal to the
+#: grid's mass gradient, which the kernel spreads over 1.5 cells: within it of a face's edge the patches lean up into
+#: a body resting there (a rigid cylinder longer than the jelly slab under it was thrown 6-7 mm from rest and rolled
+#: 14-20 % slow at n_grid 24).
 DOMAIN = 1
 #: Round 83: the bisections of :func:`domain_point`'s nearest point to a line.
 DOMAIN_BISECT = 48
@@ -168,43 +169,31 @@ def sphere_patch(x: np.ndarray, m: np.ndarray, a: float, c: np.ndarray, R: float
     return d - R, r / max(d, 1e-300), q
 
 
-def domain_axes(F: np.ndarray) -> np.ndarray:
-    """Round 83: a soft point's domain axes (3, 3), columns: its ``F``'s columns (the fill's axes carried by its
-    deformation) made orthonormal by Gram-Schmidt in their order, the third ``g0 x g1`` (so the domain stays a cube of
-    the fill's size where ``F`` stretches it, or holds only the elastic part, as in the plastic models)."""
-    F = np.asarray(F, float)
-    g0 = F[:, 0] / max(np.linalg.norm(F[:, 0]), 1e-300)
-    g1 = F[:, 1] - (F[:, 1] @ g0) * g0
-    g1 = g1 / max(np.linalg.norm(g1), 1e-300)
-    return np.stack([g0, g1, np.cross(g0, g1)], axis=1)
-
-
-def domain_point(x: np.ndarray, F: np.ndarray, a: float, c: np.ndarray, e: np.ndarray | None = None) -> np.ndarray:
+def domain_point(x: np.ndarray, a: float, c: np.ndarray, e: np.ndarray | None = None) -> np.ndarray:
     """Round 83 (:data:`DOMAIN`): the offset ``q`` (3,) m of the point of a soft point's domain nearest the point
     ``c`` (``e`` None: a sphere's centre) or the line through ``c`` along the unit ``e`` (a cylinder's axis).
 
-    The domain is the cube ``x + G u``, ``|u_k| <= a`` (``a`` its half-size, m; ``G`` :func:`domain_axes` of the
-    point's ``F``, (3, 3)). Nearest a point: ``u`` the clamp of the point's coordinates (exact). Nearest a line
-    ``b + t e'`` (coordinates ``G^T``): the squared distance from its point at ``t`` to the cube is convex in ``t``,
-    its derivative ``2 (l - clamp(l)) . e'`` non-decreasing, negative a half-diagonal before the line's point nearest
-    the cube's centre and positive as far after: :data:`DOMAIN_BISECT` bisections of it (exact to ``2^-48`` of the
-    cube's diagonal), then ``u`` the clamp of the line's point there.
+    The domain is the cube ``x + u``, ``|u_k| <= a`` (``a`` its half-size, m) on the fill's axes (the world's).
+    Nearest a point: ``u`` the clamp of the point's offset (exact). Nearest a line ``b + t e`` (``b = c - x``): the
+    squared distance from its point at ``t`` to the cube is convex in ``t``, its derivative ``2 (l - clamp(l)) . e``
+    non-decreasing, negative a half-diagonal before the line's point nearest the cube's centre and positive as far
+    after: :data:`DOMAIN_BISECT` bisections of it (exact to ``2^-48`` of the cube's diagonal), then ``u`` the clamp of
+    the line's point there.
     """
-    G = domain_axes(F)
-    b = G.T @ (np.asarray(c, float) - np.asarray(x, float))
+    b = np.asarray(c, float) - np.asarray(x, float)
     if e is None:
-        return G @ np.clip(b, -a, a)
-    ep = G.T @ np.asarray(e, float)
-    t0 = -float(b @ ep)
+        return np.clip(b, -a, a)
+    e = np.asarray(e, float)
+    t0 = -float(b @ e)
     lo, hi = t0 - np.sqrt(3.0) * a, t0 + np.sqrt(3.0) * a
     for _ in range(DOMAIN_BISECT):
         t = 0.5 * (lo + hi)
-        l = b + t * ep
-        if (l - np.clip(l, -a, a)) @ ep < 0.0:
+        l = b + t * e
+        if (l - np.clip(l, -a, a)) @ e < 0.0:
             lo = t
         else:
             hi = t
-    return G @ np.clip(b + 0.5 * (lo + hi) * ep, -a, a)
+    return np.clip(b + 0.5 * (lo + hi) * e, -a, a)
 
 
 def cylinder_at(y: np.ndarray, e: np.ndarray, R: float, h: float) -> tuple[float, np.ndarray]:

@@ -128,9 +128,9 @@ class PointGrid(RollGrid):
                                 nb = (R @ g).normalized()
                                 dlt = q
                 if ti.static(self.pg_roll):   # round 70: a sphere's exact patch distance (roll_grid.py)
-                    best, sb, nb, dlt = self.rg_sphere(p, xp, base, fx, w, f, skin, best, sb, nb, dlt)
+                    best, sb, nb, dlt = self.rg_sphere(xp, base, fx, w, f, skin, best, sb, nb, dlt)
                     if ti.static(self.pg_hascyl):   # round 72: the cylinders' (roll_grid.py)
-                        best, sb, nb, dlt = self.rg_cylinder(p, xp, base, fx, w, f, skin, best, sb, nb, dlt)
+                        best, sb, nb, dlt = self.rg_cylinder(xp, base, fx, w, f, skin, best, sb, nb, dlt)
                 self.pc_x[p] = dlt
                 if sb >= 0:
                     v = ti.Vector.zero(self.real, 3)

@@ -54,36 +54,28 @@ class RollGrid:
         return has, t1, t2
 
     @ti.func
-    def rg_domain(self, p, xp, a, c, e):
+    def rg_domain(self, xp, a, c, e):
         """Round 83 (``gasp_core.mpm.roll_contact.domain_point``; warp_mpm's ``roll_shape.domain_near``): the offset
-        of the point of point ``p``'s domain (the cube ``xp + G u``, ``|u_k| <= a``, ``G`` its ``F``'s columns made
-        orthonormal) nearest the point ``c`` (``e`` zero: the clamp) or the line through ``c`` along the unit ``e``
-        (``rg_bisect`` bisections of the convex distance's derivative along the line)."""
-        Fp = ti.cast(self.F[p], ti.f64)
-        g0 = ti.Vector([Fp[0, 0], Fp[1, 0], Fp[2, 0]]).normalized()
-        g1 = ti.Vector([Fp[0, 1], Fp[1, 1], Fp[2, 1]])
-        g1 = (g1 - g1.dot(g0) * g0).normalized()
-        g2 = g0.cross(g1)
-        d = c - xp
-        b = ti.Vector([g0.dot(d), g1.dot(d), g2.dot(d)])
-        ep = ti.Vector([g0.dot(e), g1.dot(e), g2.dot(e)])
+        of the point of a soft point's domain (the cube ``xp + u``, ``|u_k| <= a`` on the fill's axes) nearest the
+        point ``c`` (``e`` zero: the clamp) or the line through ``c`` along the unit ``e`` (``rg_bisect`` bisections
+        of the convex distance's derivative along the line)."""
+        b = c - xp
         if e.norm() > 0.0:
-            t0 = -b.dot(ep)
+            t0 = -b.dot(e)
             h = ti.sqrt(3.0) * a
             lo, hi = t0 - h, t0 + h
             for _ in range(self.rg_bisect):
                 t = 0.5 * (lo + hi)
-                l = b + t * ep
-                if (l - ti.min(ti.max(l, -a), a)).dot(ep) < 0.0:
+                l = b + t * e
+                if (l - ti.min(ti.max(l, -a), a)).dot(e) < 0.0:
                     lo = t
                 else:
                     hi = t
-            b = b + 0.5 * (lo + hi) * ep
-        u = ti.min(ti.max(b, -a), a)
-        return u[0] * g0 + u[1] * g1 + u[2] * g2
+            b = b + 0.5 * (lo + hi) * e
+        return ti.min(ti.max(b, -a), a)
 
     @ti.func
-    def rg_sphere(self, p, xp, base, fx, w, f, skin, best, sb, nb, dlt):
+    def rg_sphere(self, xp, base, fx, w, f, skin, best, sb, nb, dlt):
         """``pg_mark``'s read of the round bodies that are spheres (``pg_sph``): the soft point at ``xp`` as its
         patch (its field ``f``'s outward normal from the node masses ``pc_m``), the least distance over it exactly
         (warp_mpm's ``pg_mark``); ``(best, sb, nb, dlt)`` where nearer than ``best``."""
@@ -96,7 +88,7 @@ class RollGrid:
                 q = ti.Vector.zero(ti.f64, 3)
                 lift = ti.cast(0.0, ti.f64)
                 if ti.static(self.rg_dom != 0):   # round 83: the point as its domain, compared as a face's patch
-                    q = self.rg_domain(p, xp, pm, c, ti.Vector.zero(ti.f64, 3))
+                    q = self.rg_domain(xp, pm, c, ti.Vector.zero(ti.f64, 3))
                     lift = pm
                 else:
                     has, t1, t2 = self.rg_frame(base, fx, w, f)
@@ -116,7 +108,7 @@ class RollGrid:
         return b_out, s_out, n_out, d_out
 
     @ti.func
-    def rg_cylinder(self, p, xp, base, fx, w, f, skin, best, sb, nb, dlt):
+    def rg_cylinder(self, xp, base, fx, w, f, skin, best, sb, nb, dlt):
         """Round 72: ``pg_mark``'s read of the solid cylinders (``pg_cyl``: radius, half-length, rest-frame axis; the
         axis turned by the body's rotation): the patch's point nearest the axis's line (``CYL_SWEEPS`` sweeps of
         coordinate descent), the capped cylinder's signed distance and normal there, the arm at its surface point
@@ -136,7 +128,7 @@ class RollGrid:
                 q = ti.Vector.zero(ti.f64, 3)
                 lift = ti.cast(0.0, ti.f64)
                 if ti.static(self.rg_dom != 0):   # round 83: the point as its domain, compared as a face's patch
-                    q = self.rg_domain(p, xp, pm, c, e)
+                    q = self.rg_domain(xp, pm, c, e)
                     lift = pm
                 else:
                     has, t1, t2 = self.rg_frame(base, fx, w, f)

@@ -41,7 +41,7 @@ NS = wp.constant(32)
 def build_point_grid(Ft):
     """``(pg_body, pg_mark, pg_pre, pg_pass, pg_node)`` for the scalar type ``Ft``. It is long because the kernels
     and their helpers are closures of the scalar type (``rigid_collider.build_collider``'s reason)."""
-    vec3, _vec4, mat33 = build_types(Ft)
+    vec3 = build_types(Ft)[0]
     in_grid, weights = build_stencil(Ft)
     stencil_at = build_stencil_at(Ft)
     field_offset_base, gather = build_field_reads(Ft)[0], build_gather(Ft)
@@ -157,7 +157,7 @@ def build_point_grid(Ft):
                 lt: wp.array(dtype=vec3d), tw: wp.array(dtype=wp.float64), soft_c: wp.array(dtype=wp.float64),
                 pc_m: wp.array(dtype=Ft), patch: wp.float64, pc_x: wp.array(dtype=vec3d),
                 sph: wp.array(dtype=wp.float64), sarm: int, cyl: wp.array(dtype=wp.float64), sweeps: int, turn: int,
-                F: wp.array(dtype=mat33), dom: int):
+                dom: int):
         """A soft point's slot (``pc_s``: -1 none; the slot whose body's distance at it is least) where it is within
         the skin by the substep's end at its G2P velocity (linearly: ``phi + dt u_n < SKIN dx``), its normal, its
         target ``b`` (``u_n >= b``), its impulses cleared; its weights into ``tw`` (its field's nodes) and its arm
@@ -169,10 +169,6 @@ def build_point_grid(Ft):
             W, idx0, fx = stencil_at(X, n_grid)
             off = field_offset_base(grid_dv, in_a, body[p], n_grid * n_grid * n_grid)
             xp = to64(x[p])
-            Fq = F[p]
-            Fp = mat33d(wp.float64(Fq[0, 0]), wp.float64(Fq[0, 1]), wp.float64(Fq[0, 2]), wp.float64(Fq[1, 0]),
-                        wp.float64(Fq[1, 1]), wp.float64(Fq[1, 2]), wp.float64(Fq[2, 0]), wp.float64(Fq[2, 1]),
-                        wp.float64(Fq[2, 2]))
             best, sb, nb = nearest(xp, wp.float64(1.0e30), ns, rc_pt, bodies, centre, rot, sl, 0, dt, phi, grad, org,
                                    hs, dims)
             dlt = vec3d(wp.float64(0.0))
@@ -189,13 +185,13 @@ def build_point_grid(Ft):
                     m = vec3d(wp.float64(0.0))
                     if dom == 0:   # the broken variant's patch normal (round 83: DOMAIN 0)
                         m = soft_normal(pc_m, off, idx0, fx, n_grid)
-                    best, sb, nb, dlt = sph_take(xp, m, Fp, dom, patch, c, sph[s], s, sweeps, sarm, best, sb, nb, dlt)
+                    best, sb, nb, dlt = sph_take(xp, m, dom, patch, c, sph[s], s, sweeps, sarm, best, sb, nb, dlt)
                 if rc_pt[s] != 0 and cyl_near(xp, c, cyl, s, skin, patch):   # round 72: a cylinder's (roll_shape.py)
                     m = vec3d(wp.float64(0.0))
                     if dom == 0:
                         m = soft_normal(pc_m, off, idx0, fx, n_grid)
                     best, sb, nb, dlt = cyl_take(xp, m, patch, c, cyl_rot(rot[bodies[s]], turn), cyl, s, sweeps, sarm,
-                                                 best, sb, nb, dlt, Fp, dom)
+                                                 best, sb, nb, dlt, dom)
             pc_x[p] = dlt
             if sb >= 0:
                 vg, B = gather(grid_v, grid_dv, off, W, idx0, n_grid)
@@ -355,7 +351,7 @@ def grid_launches(eng, Ft, passes: int, patch: float | None = None, fric: float 
             float(rigid_sdf.BIAS), eng.pc_phi, eng.pc_grad, eng.pc_org, eng.pc_h, eng.pc_dim, eng.rc_pt, eng.pg_sl,
             eng.pc_s, eng.pc_n, eng.pc_b, eng.pg_ln, eng.pg_lt, eng.pg_tw, eng.pg_c, eng.pc_m,
             float(patch * eng.dx), eng.pc_x, eng.pg_sph, int(roll.SURFACE_ARM), eng.pg_cyl, int(roll.CYL_SWEEPS),
-            int(roll.CYL_TURN), eng.F, int(roll.DOMAIN)]),
+            int(roll.CYL_TURN), int(roll.DOMAIN)]),
         wp.launch(pre, dim=n, device=d, record_cmd=True, inputs=[
             eng.x, eng.in_a, lo, Ft(eng.inv_dx), ng, eng.body, eng.rc_bodies, eng.rb_c, eng.rb_M, eng.pg_sl,
             eng.pc_s, eng.pc_n, eng.pg_tw, eng.pc_m, eng.pg_S, eng.grid_dv, eng.pc_x])]

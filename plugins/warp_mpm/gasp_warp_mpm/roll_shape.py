@@ -87,42 +87,36 @@ def cyl_at(y: vec3d, e: vec3d, R: wp.float64, h: wp.float64):
 
 
 @wp.func
-def domain_near(xp: vec3d, Fp: mat33d, a: wp.float64, c: vec3d, e: vec3d, bisect: int):
+def domain_near(xp: vec3d, a: wp.float64, c: vec3d, e: vec3d, bisect: int):
     """Round 83 (``gasp_core.mpm.roll_contact.domain_point``, the reference): the offset of the point of a soft
-    point's domain (the cube ``xp + G u``, ``|u_k| <= a``, ``G`` its ``F``'s columns made orthonormal,
-    ``domain_axes``) nearest the point ``c`` (``e`` zero: the clamp) or the line through ``c`` along the unit ``e``
-    (``bisect`` bisections of the convex distance's derivative along the line)."""
-    g0 = wp.normalize(vec3d(Fp[0, 0], Fp[1, 0], Fp[2, 0]))
-    g1 = vec3d(Fp[0, 1], Fp[1, 1], Fp[2, 1])
-    g1 = wp.normalize(g1 - wp.dot(g1, g0) * g0)
-    g2 = wp.cross(g0, g1)
-    d = c - xp
-    b = vec3d(wp.dot(g0, d), wp.dot(g1, d), wp.dot(g2, d))
-    ep = vec3d(wp.dot(g0, e), wp.dot(g1, e), wp.dot(g2, e))
+    point's domain (the cube ``xp + u``, ``|u_k| <= a`` on the fill's axes) nearest the point ``c`` (``e`` zero: the
+    clamp) or the line through ``c`` along the unit ``e`` (``bisect`` bisections of the convex distance's derivative
+    along the line)."""
+    b = c - xp
     if wp.length(e) > wp.float64(0.0):
-        t0 = -wp.dot(b, ep)
+        t0 = -wp.dot(b, e)
         h = wp.sqrt(wp.float64(3.0)) * a
         lo = t0 - h
         hi = t0 + h
         for _ in range(bisect):
             t = wp.float64(0.5) * (lo + hi)
-            l = b + t * ep
+            l = b + t * e
             k = vec3d(cyl_clamp(l[0], -a, a), cyl_clamp(l[1], -a, a), cyl_clamp(l[2], -a, a))
-            if wp.dot(l - k, ep) < wp.float64(0.0):
+            if wp.dot(l - k, e) < wp.float64(0.0):
                 lo = t
             else:
                 hi = t
-        b = b + wp.float64(0.5) * (lo + hi) * ep
-    return cyl_clamp(b[0], -a, a) * g0 + cyl_clamp(b[1], -a, a) * g1 + cyl_clamp(b[2], -a, a) * g2
+        b = b + wp.float64(0.5) * (lo + hi) * e
+    return vec3d(cyl_clamp(b[0], -a, a), cyl_clamp(b[1], -a, a), cyl_clamp(b[2], -a, a))
 
 
 @wp.func
-def cyl_domain(xp: vec3d, Fp: mat33d, patch: wp.float64, c: vec3d, rot: mat33d, cyl: wp.array(dtype=wp.float64),
+def cyl_domain(xp: vec3d, patch: wp.float64, c: vec3d, rot: mat33d, cyl: wp.array(dtype=wp.float64),
                s: int, sweeps: int):
     """Round 83: :func:`cyl_patch` with the point read as its domain (:func:`domain_near`) for the patch."""
     o = NC * s
     e = wp.normalize(rot * vec3d(cyl[o + 2], cyl[o + 3], cyl[o + 4]))
-    q = domain_near(xp, Fp, patch, c, e, BISECT)
+    q = domain_near(xp, patch, c, e, BISECT)
     phi, n = cyl_at(xp - c + q, e, cyl[o], cyl[o + 1])
     return phi, n, q
 
@@ -148,18 +142,18 @@ def cyl_near(xp: vec3d, c: vec3d, cyl: wp.array(dtype=wp.float64), s: int, skin:
 
 @wp.func
 def cyl_take(xp: vec3d, m: vec3d, patch: wp.float64, c: vec3d, rot: mat33d, cyl: wp.array(dtype=wp.float64), s: int,
-             sweeps: int, sarm: int, best: wp.float64, sb: int, nb: vec3d, dlt: vec3d, Fp: mat33d, dom: int):
+             sweeps: int, sarm: int, best: wp.float64, sb: int, nb: vec3d, dlt: vec3d, dom: int):
     """``point_grid.pg_mark``'s read of slot ``s``'s cylinder: ``(best, sb, nb, dlt)`` its patch distance, slot,
     normal and the arm (``sarm`` 1: to the cylinder's surface point along the normal; 0, a broken variant: the patch's
     point) where nearer than ``best``, else as given. Round 83, ``dom`` 1 (``roll_contact.DOMAIN``): the point read
-    as its domain (``F`` ``Fp``; :func:`cyl_domain`), its distance compared as the patch's through its centre
+    as its domain (:func:`cyl_domain`), its distance compared as the patch's through its centre
     (plus ``patch``: a face's domain lies that much nearer)."""
     mm = m
     if dom != 0:
         mm = vec3d(wp.float64(0.0))   # no patch: cyl_domain's read below
     cd, cn, q = cyl_patch(xp, mm, patch, c, rot, cyl, s, sweeps)
     if dom != 0:
-        cd, cn, q = cyl_domain(xp, Fp, patch, c, rot, cyl, s, sweeps)
+        cd, cn, q = cyl_domain(xp, patch, c, rot, cyl, s, sweeps)
     b_out = best
     s_out = sb
     n_out = nb
@@ -180,17 +174,17 @@ def cyl_take(xp: vec3d, m: vec3d, patch: wp.float64, c: vec3d, rot: mat33d, cyl:
 
 
 @wp.func
-def sph_take(xp: vec3d, m: vec3d, Fp: mat33d, dom: int, patch: wp.float64, c: vec3d, R: wp.float64, s: int,
+def sph_take(xp: vec3d, m: vec3d, dom: int, patch: wp.float64, c: vec3d, R: wp.float64, s: int,
              sweeps: int, sarm: int, best: wp.float64, sb: int, nb: vec3d, dlt: vec3d):
     """``point_grid.pg_mark``'s read of slot ``s``'s sphere (centre ``c``, radius ``R``; round 70): ``(best, sb, nb,
     dlt)`` where nearer than ``best``, else as given. ``dom`` 1 (round 83, ``roll_contact.DOMAIN``): the point read as
-    its domain (``F`` ``Fp``, :func:`domain_near`), compared as a face's patch through its centre (plus ``patch``);
+    its domain (:func:`domain_near`), compared as a face's patch through its centre (plus ``patch``);
     0, the broken variant: the square patch of normal ``m`` (rounds 70-72). ``sarm`` 1: the arm to the sphere's
     surface point (0, a broken variant: the patch's point)."""
     q = vec3d(wp.float64(0.0))
     lift = wp.float64(0.0)
     if dom != 0:
-        q = domain_near(xp, Fp, patch, c, vec3d(wp.float64(0.0)), BISECT)
+        q = domain_near(xp, patch, c, vec3d(wp.float64(0.0)), BISECT)
         lift = patch
     elif wp.length(m) > wp.float64(0.0) and patch > wp.float64(0.0):
         t1, t2 = patch_tangents(m)
