@@ -14,7 +14,10 @@ nu 0.3, on a ground of friction 1; frames of 1/240 s):
   its acceleration against ``g sin / (1 + I / M R^2)`` (mu 0.5, rolling) or ``g (sin - mu cos)`` (mu 0.05, slipping).
 * ``ball``: a rigid ball R 3 cm released at ``y`` on a slab 12 cm wide (its edge at y 6 cm), the same figures.
 
-    python benchmarks/studies/roll_edge83.py --engine warp_mpm taichi_mpm --grid 24 32 --domain 1 0
+    python benchmarks/studies/roll_edge83.py --engine warp_mpm taichi_mpm --grid 24 32 --domain 1 0 --out rows.json
+
+``benchmarks/results/roll_edge83.json`` holds round 83's runs merged, each row's ``run`` naming its run: the patch
+(``--domain 0``) on both engines, the domain on each engine, and the cube turned with ``F`` (tried, not kept).
 """
 from __future__ import annotations
 
@@ -132,8 +135,11 @@ def main(argv=None) -> None:
     p.add_argument("--engine", nargs="+", default=["warp_mpm"])
     p.add_argument("--grid", type=int, nargs="+", default=[24])
     p.add_argument("--domain", type=int, nargs="+", default=[1, 0])
-    p.add_argument("--out", default="benchmarks/results/roll_edge83.json")
+    p.add_argument("--out", help="write the rows to this JSON file (refused if it exists: the round's file, "
+                                 "benchmarks/results/roll_edge83.json, merges several runs, each row's 'run' names it)")
     a = p.parse_args(argv)
+    if a.out and Path(a.out).exists():
+        p.error(f"--out {a.out}: the file exists; name a new one")
     rows = []
     for engine in a.engine:
         for n_grid in a.grid:
@@ -151,10 +157,11 @@ def main(argv=None) -> None:
                         **slope(engine, n_grid, 0.03, 0.18, 0.06, mu, bool(dom), two=True))
                     for y in (0.0, 0.04, 0.05, 0.06):
                         add("ball", y=y, mu=mu, **ball(engine, n_grid, y, mu, bool(dom)))
-    out = Path(a.out)
-    tmp = out.with_suffix(".tmp")
-    tmp.write_text(json.dumps(rows, indent=1))
-    tmp.replace(out)
+    if a.out:
+        out = Path(a.out)
+        tmp = out.with_suffix(".tmp")
+        tmp.write_text(json.dumps(rows, indent=1))
+        tmp.replace(out)
 
 
 if __name__ == "__main__":
