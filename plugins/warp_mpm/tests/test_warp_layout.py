@@ -89,6 +89,8 @@ LOOP_BOUNDS = {
     "range(ns)": "the rigid collider's slots, the scene's rigid bodies (round 64: rigid_collider.owner at a shared "
                  "node, as node_slot's range(nb))",
     "range(sweeps)": "the pairs' sweeps, rigid_pairs.SWEEPS (8; round 62)",
+    "range(bisect)": "round 83: a soft point's domain's bisections along a cylinder's axis, roll_contact.DOMAIN_BISECT "
+                     "(48; roll_shape.domain_near, one thread a point)",
     "range(n_on)": "the touching pairs, as the node kernel listed them (round 62, 63; rigid_pairs' one thread)",
     "range(n_isl)": "the islands of touching rigid bodies, at most n_bodies (round 81, rigid_pairs' islands)",
     "range(isl_start[i], isl_start[i + 1])": "an island's touching pairs (round 81, rigid_pairs' sweep, one thread "
