@@ -148,12 +148,13 @@ def cyl_take(xp: vec3d, m: vec3d, patch: wp.float64, c: vec3d, rot: mat33d, cyl:
     point) where nearer than ``best``, else as given. Round 83, ``dom`` 1 (``roll_contact.DOMAIN``): the point read
     as its domain (:func:`cyl_domain`), its distance compared as the patch's through its centre
     (plus ``patch``: a face's domain lies that much nearer)."""
-    mm = m
-    if dom != 0:
-        mm = vec3d(wp.float64(0.0))   # no patch: cyl_domain's read below
-    cd, cn, q = cyl_patch(xp, mm, patch, c, rot, cyl, s, sweeps)
+    cd = wp.float64(0.0)
+    cn = vec3d(wp.float64(0.0))
+    q = vec3d(wp.float64(0.0))
     if dom != 0:
         cd, cn, q = cyl_domain(xp, patch, c, rot, cyl, s, sweeps)
+    else:
+        cd, cn, q = cyl_patch(xp, m, patch, c, rot, cyl, s, sweeps)
     b_out = best
     s_out = sb
     n_out = nb
