@@ -153,7 +153,8 @@ def fragmented(setup, x: np.ndarray, v: np.ndarray, hits: list[dict], seed: int 
 
 
 def frames(info, setup, stats: RunStats, n_frames: int, start_frame: int = 0, state: dict | None = None,
-           sleep: bool = False, before: Callable[[], None] | None = None, tracker=None) -> Iterator[FrameRecord]:
+           sleep: bool = False, before: Callable[[], None] | None = None, tracker=None,
+           settle: bool = False) -> Iterator[FrameRecord]:
     """The run's checked frames (:meth:`gasp_core.seam.runner.EngineRun.frames`), its breakable bodies broken into
     fragments on the impact that breaks them (module notes). ``before`` is called once the engine is built.
     ``stats.fragments`` gains one record per break (``frame``: the last frame before it, and :func:`fragmented`'s).
@@ -162,7 +163,7 @@ def frames(info, setup, stats: RunStats, n_frames: int, start_frame: int = 0, st
     show on both sides of the cut; without one, each frame's damage after the break is the cut
     (:func:`gasp_core.run.fragments.cut_damage`). Errors as :class:`~gasp_core.seam.runner.EngineRun`."""
     bodies = breakable(setup)
-    with EngineRun(info, setup, stats, start_frame=start_frame, state=state, sleep=sleep) as run:
+    with EngineRun(info, setup, stats, start_frame=start_frame, state=state, sleep=sleep, settle=settle) as run:
         if before is not None:
             before()
         if not bodies:

@@ -344,7 +344,7 @@ def iter_frames(prep: PreparedScene, n_frames: int, stats: RunStats | None = Non
         yield 0, gs, row
     with EngineRun(prep.info, prep.setup, stats, start_frame=0 if resume is None else resume.frame,
                    state=None if resume is None else resume.engine_state,
-                   sleep=getattr(prep.scene, "sleep", False)) as engine:
+                   sleep=getattr(prep.scene, "sleep", False), settle=getattr(prep.scene, "settle", False)) as engine:
         for rec in engine.frames(n_frames):
             gs, row = rebuild_all(rec.frame, rec.x)
             row["sim_s"] = rec.wall_s

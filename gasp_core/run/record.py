@@ -49,6 +49,8 @@ def run_summary(prep, stats, n_frames: int, per_frame: list[dict], wall_s: float
         # and per body (gasp_core.seam.body_sleep, engines with the feature sleep): when each slept and woke
         "sleep": {"enabled": bool(getattr(scene, "sleep", False)), "asleep_after_frame": stats.asleep_after,
                   "bodies": _named(stats.bodies, prep.names)},
+        # round 84: the settled start (gasp_core.seam.settle): its frames, its largest displacement, its residual
+        "settle": {"enabled": bool(getattr(scene, "settle", False)), **(stats.settle or {})},
         "gravity": list(scene.gravity),
         "domain": {"lo": setup.domain_lo.tolist(), "hi": setup.domain_hi.tolist(),
                    "n_grid": setup.n_grid, "dx": setup.dx},

@@ -213,7 +213,8 @@ class SimulationRun:
             with closing(fragment_run.frames(prep.info, prep.setup, self.stats, self.n_frames,
                                              0 if checkpoint is None else checkpoint.frame, None if checkpoint is None
                                              else checkpoint.engine_state, getattr(prep.scene, "sleep", False),
-                                             self.before_frames, tracker)) as recs:   # stiff brittle bodies break
+                                             self.before_frames, tracker,
+                                             settle=getattr(prep.scene, "settle", False))) as recs:   # stiff brittle bodies break
                 for rec in recs:
                     hand(rec.frame, rec.x, rec.wall_s, rec.get_state)
         self.reporter.end_progress()

@@ -66,6 +66,8 @@ class RunStats:
     left_domain: int | None = None
     #: The breaks of stiff brittle bodies into rigid fragments (``gasp_core.run.fragment_run``), one record each.
     fragments: list = field(default_factory=list)
+    #: The settled start's record (:func:`gasp_core.seam.settle.settled_state`; the scene key ``settle``); None without.
+    settle: dict | None = None
     #: The energy watchdog's record (:meth:`gasp_core.seam.energy_watch.EnergyWatch.record`: the largest gain over
     #: the start's energy seen, as a fraction of the scene's energy scale; run.json ``energy``); None before a frame.
     energy: dict | None = None
@@ -148,6 +150,9 @@ class EngineRun:
         0, ``stats.asleep_after``); ``get_state`` then carries the sleep's count, so a resumed run sleeps alike. With
         an engine with the feature ``sleep``, each body at rest is frozen on its own and woken by what comes within
         its reach (:mod:`gasp_core.seam.body_sleep`, the engine's ``set_asleep``; ``stats.bodies``).
+    settle : bool
+        A fresh run (``start_frame`` 0) starts from its bodies at rest in their weight
+        (:func:`gasp_core.seam.settle.settled_state`, the scene key ``settle``; its record in ``stats.settle``).
 
     Raises
     ------
@@ -159,7 +164,7 @@ class EngineRun:
     """
 
     def __init__(self, info: EngineInfo, setup: SimSetup, stats: RunStats | None = None, start_frame: int = 0,
-                 state: dict | None = None, sleep: bool = False):
+                 state: dict | None = None, sleep: bool = False, settle: bool = False):
         if start_frame and "state" not in info.capabilities.features:
             raise EngineError(f"engine '{info.name}' cannot resume after frame {start_frame}: "
                               f"it does not have the feature 'state'")
@@ -167,7 +172,10 @@ class EngineRun:
         self.stats = stats if stats is not None else RunStats()
         t0 = time.perf_counter()
         self.watch = SleepWatch(setup, sleep, BodySleep(setup) if "sleep" in info.capabilities.features else None)
-        self.engine, self.get_state = _built(info, setup, start_frame, state, self.watch)
+        if settle and not start_frame:
+            from gasp_core.seam.settle import settled_state
+            state, self.stats.settle = settled_state(info, setup)
+        self.engine, self.get_state = _built(info, setup, start_frame, state, self.watch, bool(settle))
         self.stats.build_s = time.perf_counter() - t0
         self._open = True
         try:
@@ -294,13 +302,17 @@ def _advancer(engine: PointEngine, watch: SleepWatch) -> Callable[[int, np.ndarr
     return advance
 
 
-def _built(info: EngineInfo, setup: SimSetup, start_frame: int, state: dict | None, watch: SleepWatch):
-    """The engine built (and, after ``start_frame``, restored from ``state``) and its checkpoint reader (None
-    without the feature ``state``), the sleep's count in and out through ``watch``."""
+def _built(info: EngineInfo, setup: SimSetup, start_frame: int, state: dict | None, watch: SleepWatch,
+           settled: bool = False):
+    """The engine built (and, after ``start_frame``, restored from ``state``; ``settled``: from the settled
+    ``state`` at frame 0) and its checkpoint reader (None without the feature ``state``), the sleep's count in and out
+    through ``watch``."""
     engine: PointEngine = build_engine(info, setup)
     stateful: StatefulEngine | None = engine if "state" in info.capabilities.features else None
     if start_frame:
         call_engine(info, "set_state", stateful.set_state, watch.take_from(state))
+    elif settled:
+        call_engine(info, "set_state", stateful.set_state, state)
     return engine, (None if stateful is None else watch.saving(lambda: call_engine(info, "get_state", stateful.get_state)))
 
 
