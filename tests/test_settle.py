@@ -109,13 +109,26 @@ def test_a_settled_jelly_cube_holds_where_the_released_one_walks(engine):
     assert check(30, 0.6, halved) is not None, halved
 
 
+#: Measured misses, strict xfails (warp_mpm, round 84; mm in 1 s from 0.1 s, settled / released): the tall block
+#: on the grid contact. Its weight's line passes 0.87 of the way from its centre to the downhill edge, beyond the
+#: base's middle third, so its uphill edge unloads; it slides during the settle itself (7-15 mm) and after it.
+#: Released unstressed it rocks and slides away on both contacts (270-420 mm at n_grid 24-48); settled, the
+#: particle contact holds it at n_grid 24 and 32 (0.001-0.051 mm) but not at 48 (mu 0.6: 95 mm; mu 0.7: 0.91 mm).
+TALL_GRID = {(24, 0.6): "61.3 mm (released: 32.7)", (32, 0.6): "298 mm (released: 281)",
+             (32, 0.7): "1.29 mm (released: 22.6)"}
+
+
 def _family():
     for name in BODIES:
         for mu in (0.6, 0.7):
             for contact in ("particle", "grid"):
                 for n_grid in (24, 32):
-                    for engine in ENGINES:
-                        yield pytest.param(engine, name, mu, contact, n_grid,
+                    why = TALL_GRID.get((n_grid, mu)) if (name, contact) == ("tall", "grid") else None
+                    miss = [pytest.mark.xfail(strict=True, reason=f"the tall block on the grid contact: {why}")] \
+                        if why else []
+                    for engine in ("warp_mpm", "taichi_mpm"):
+                        yield pytest.param(engine, name, mu, contact, n_grid, marks=[*engine_param(engine).marks,
+                                                                                       *miss],
                                            id=f"{engine}-{name}-mu{mu}-{contact}-{n_grid}")
 
 
@@ -123,7 +136,8 @@ def _family():
 @pytest.mark.parametrize("engine,name,mu,contact,n_grid", list(_family()))
 def test_settled_jelly_blocks_hold_on_a_slope(engine, name, mu, contact, n_grid):
     """Three jelly blocks on 30 degrees at mu 0.6 and 0.7 (``tan / mu`` 0.96 and 0.82), both contacts, n_grid 24 and
-    32, both engines: started settled, each moves under 1 mm in 1 s."""
+    32, both engines: started settled, each moves under 1 mm in 1 s (measured 0.000-0.015 mm, warp_mpm), but the tall
+    block on the grid contact (:data:`TALL_GRID`, strict xfails)."""
     fig, rec = settled_figure(engine, 30, mu, contact, n_grid, BODIES[name])
     assert check(30, mu, fig) is None and rec["settled"], (fig, rec)
 
@@ -148,3 +162,49 @@ def test_a_settled_block_still_slides_at_coulombs_rate(engine):
         with pytest.warns(UserWarning, match="not at rest"):
             fig, rec = settled_figure(engine, 30, mu, "particle", 24)
         assert not rec["settled"] and check(30, mu, fig) is None, (mu, fig / closed_form(30, mu) - 1.0, rec)
+
+
+def column_strain(engine: str, contact: str, n_grid: int, h: float) -> np.ndarray:
+    """A jelly column (10 x 10 cm, ``h`` high; E 1e5, nu 0: uniaxial) settled on a level ground: per fill layer, its
+    points' mean ``F_zz - 1`` over the closed form of a column carrying its own weight, ``-rho g (h - z) / E``."""
+    s = block_setup(0.0, 0.5, contact, (0.1, 0.1, h), n_grid)
+    s.materials = [dataclasses.replace(s.materials[0], nu=0.0)]
+    with EngineRun(get_engine(engine), s, RunStats(), settle=True) as run:
+        F = run.engine.to_setup_order(np.asarray(run.engine.read_array("F"), float).reshape(-1, 3, 3))
+    x0 = np.asarray(s.x, float)
+    layer = np.round((x0[:, 2] - x0[:, 2].min()) / (s.dx / 2)).astype(int)
+    top = x0[:, 2].max() + s.dx / 4
+    m = s.materials[0]
+    return np.array([np.mean(F[layer == k, 2, 2] - 1.0) / (-m.rho * 9.81 * (top - x0[layer == k, 2].mean()) / m.E)
+                     for k in range(layer.max() + 1)])
+
+
+#: The column's check: the mean over its interior layers (two at each face left out: the free surface's and the
+#: ground's half-cells) within this of the closed form. Measured 0.999-1.004 (warp_mpm, n_grid 24-48).
+COLUMN_TOL = 0.025
+
+
+def _interior(r: np.ndarray) -> float:
+    return float(np.mean(r[2:-2]))
+
+
+@pytest.mark.parametrize("engine", [engine_param("warp_mpm"), engine_param("taichi_mpm", marks=[pytest.mark.slow])])
+def test_a_settled_column_carries_its_weight(engine, monkeypatch):
+    """Settled, the column's strain is its weight's (interior mean within :data:`COLUMN_TOL` of
+    ``rho g (h - z) / E``). The catch: a settle whose gravity ends 5 % short
+    reads 0.95 and fails."""
+    assert abs(_interior(column_strain(engine, "particle", 24, 0.2)) - 1.0) <= COLUMN_TOL
+    import gasp_core.seam.settle as settle
+    still = settle._still
+    monkeypatch.setattr(settle, "_still", lambda setup, g, dt: still(setup, 0.95 * g, dt))
+    assert abs(_interior(column_strain(engine, "particle", 24, 0.2)) - 1.0) > COLUMN_TOL
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("contact", ("particle", "grid"))
+@pytest.mark.parametrize("n_grid,h", [(24, 0.1), (32, 0.1), (32, 0.2), (48, 0.2)])
+def test_settled_columns_carry_their_weight(engine, contact, n_grid, h):
+    """The column over two heights, three grids, both contacts and engines."""
+    r = column_strain(engine, contact, n_grid, h)
+    assert abs(_interior(r) - 1.0) <= COLUMN_TOL, np.round(r, 3).tolist()
