@@ -218,13 +218,11 @@ class Scene:
     impulses: list = field(default_factory=list)
     quality: str = DEFAULT_QUALITY
     sleep: bool = True
-    #: Round 84: start from the bodies at rest in their weight (:mod:`gasp_core.seam.settle`); default false.
-    settle: bool = False
+    settle: bool = False   # round 84: start from the bodies at rest in their weight (gasp_core.seam.settle)
 
 
 _TOP_KEYS = {"name", "frame_dt", "n_frames", "gravity", "output", "engine", "domain", "boundary", "object",
-             "collider", "force", "impulse", "quality", "sleep",
-             "settle"}
+             "collider", "force", "impulse", "quality", "sleep", "settle"}
 _OBJECT_KEYS = ({f.name for f in fields(ObjectSpec)} | set(MESH_KEYS)) - {"velocity_from_model", "up_axis_stated"}
 
 
@@ -399,5 +397,4 @@ def parse_scene(data: dict, src: Path, quality: str | None = None) -> Scene:
                          unit=" m/s^2"),
         frame_dt=read_key(data, "frame_dt", as_number, 0.0, default_from=Scene, where="", src=src, lo_open=True),
         n_frames=n_frames, output=output, name=as_string(data.get("name", src.stem), "name", src), quality=level,
-        sleep=read_key(data, "sleep", as_boolean, default_from=Scene, where="", src=src),
-        settle=read_key(data, "settle", as_boolean, default_from=Scene, where="", src=src))
+        **{k: read_key(data, k, as_boolean, default_from=Scene, where="", src=src) for k in ("sleep", "settle")})

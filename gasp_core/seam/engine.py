@@ -209,8 +209,9 @@ class StatefulEngine(PointEngine, Protocol):
         ``v``, ``F``, ``C``, ``Jp``, ``frame``, ``sim_time``. Arrays are copies.
     set_state(state)
         Restore a ``get_state()`` of an engine built from the same setup and options. Called right
-        after the factory, before any ``step_frame``. Raises :class:`SceneError` when a key is
-        missing or an array has the wrong shape.
+        after the factory, before any ``step_frame``; round 84's settle (:mod:`gasp_core.seam.settle`, the scene
+        key ``settle``) also calls it between frames, with the velocities zeroed. Raises :class:`SceneError` when a
+        key is missing or an array has the wrong shape.
     """
 
     def get_state(self) -> dict[str, np.ndarray]: ...

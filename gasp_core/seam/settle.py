@@ -26,7 +26,10 @@ sag, where it shows, appears there instead of as a ring). The settle's record go
 frames, the settle frame, the largest displacement from the capture, the last frame's largest motion in cells).
 
 Refused (:class:`~gasp_core.errors.SceneError`): an engine without the feature ``state``; a point with an initial
-velocity (a settled start is for bodies at rest).
+velocity (a settled start is for bodies at rest). Warned (``UserWarning``): a settle that ends with a point still
+moving over :data:`RESIDUAL_CELLS` a frame (a body slides, falls or flows), or a point moved over :data:`MOVED_CELLS`
+from the scene as given (a body fell, slid or tipped into place). The work is bounded: :data:`STAGES` engine builds
+and ``STAGES * STAGE_FRAMES + HOLD_FRAMES`` settle frames of at most ``MAX_SETTLE_S`` in all.
 """
 from __future__ import annotations
 
@@ -50,6 +53,9 @@ MAX_SETTLE_S = 5.0
 #: The last settle frame's largest point motion, in cells, above which the record says ``settled`` false and the
 #: run warns (a body still sliding or falling: the scene was not at rest).
 RESIDUAL_CELLS = 1.0e-3
+#: A point displaced more than this many cells from the capture by the settle: the run warns that a body fell,
+#: slid or tipped into place (a sag is a few hundredths of a cell: the 10 cm jelly cube's 0.3 mm).
+MOVED_CELLS = 0.5
 #: 1: kinetic damping (velocities zeroed at each peak of the kinetic energy); 0, a broken variant: none (the ramp
 #: alone: the bodies keep ringing).
 KINETIC = 1
@@ -76,8 +82,11 @@ def check_settle(info, setup) -> None:
     """Raise :class:`SceneError` where ``settle = true`` cannot be done: the engine lacks the feature ``state``, or a
     point has an initial velocity."""
     if "state" not in info.capabilities.features:
+        from gasp_core.seam.plugins import engines
+        able = sorted(n for n, i in engines().items() if "state" in i.capabilities.features)
         raise SceneError(f"settle = true needs an engine with the feature 'state' (get_state / set_state); engine "
-                         f"'{info.name}' has not: use taichi_mpm or warp_mpm, or leave settle out")
+                         f"'{info.name}' has not: use one that has ({', '.join(able) or 'none installed'}), or "
+                         f"leave settle out")
     v = np.asarray(setup.v, float)
     if len(v) and np.abs(v).max() > 0.0:
         bodies = sorted(set(np.asarray(setup.body_id)[np.abs(v).max(axis=1) > 0.0].tolist()))
@@ -165,4 +174,8 @@ def settled_state(info, setup) -> tuple[dict, dict]:
                       f"a point still moved {residual:.3g} cells in the last one (over {RESIDUAL_CELLS:g}); a body "
                       f"slides (tan theta over its friction), falls or flows. The run starts where the settle left "
                       f"it, at rest", UserWarning, stacklevel=2)
+    if record["moved_mm"] > 1000.0 * MOVED_CELLS * setup.dx:
+        warnings.warn(f"settle: a point moved {record['moved_mm']:.3g} mm ({record['moved_mm'] / 1000.0 / setup.dx:.2g} "
+                      f"cells) from the scene as given while settling (over {MOVED_CELLS:g}): a body fell, slid or "
+                      f"tipped into place, so the scene was not at rest there", UserWarning, stacklevel=2)
     return _rest(state), record
