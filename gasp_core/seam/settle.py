@@ -101,10 +101,8 @@ def _still(setup, g_scale: float, frame_dt: float):
 
     from gasp_core.colliders.model import Motion
     held = [dataclasses.replace(c, motion=Motion()) for c in setup.colliders]
-    s = setup.replace(gravity=np.asarray(setup.gravity, float) * g_scale, frame_dt=frame_dt, colliders=held,
-                      impulses=[], forces=[])
-    s.n_render = setup.n_render
-    return s
+    return setup.replace(gravity=np.asarray(setup.gravity, float) * g_scale, frame_dt=frame_dt, colliders=held,
+                         impulses=[], forces=[])
 
 
 def _rest(state: dict) -> dict:
@@ -143,7 +141,7 @@ def settled_state(info, setup) -> tuple[dict, dict]:
     n_frames = STAGES * STAGE_FRAMES + HOLD_FRAMES
     T = compression_period(setup)
     tau = min(FRAME_PER_PERIOD * T if T > 0.0 else setup.frame_dt, MAX_SETTLE_S / n_frames)
-    m = np.asarray(setup.p_vol, float) * np.array([mat.rho for mat in setup.materials])[np.asarray(setup.body_id)]
+    m = np.asarray(setup.p_mass, float)
     state, x, moved = None, np.asarray(setup.x, float), 0.0
     for k in range(1, STAGES + 1):
         e = build_engine(info, _still(setup, k / STAGES, tau))
