@@ -100,3 +100,12 @@ def rest_brake(c: np.ndarray, fps: float, v_rest: float = 0.1, horizontal: bool 
             u = np.zeros(3)
         out[i] = out[i - 1] + u / fps
     return out
+
+
+def turn_deg(x0: np.ndarray, x: np.ndarray) -> float:
+    """How far a body whose points moved from ``x0`` to ``x`` (n, 3; m) has turned about y, in degrees (negative:
+    downhill, towards +x over the top): the rotation of the least-squares rigid fit (Kabsch) in the x-z plane."""
+    a, b = x0 - x0.mean(axis=0), x - x.mean(axis=0)
+    u, _, vt = np.linalg.svd(a[:, [0, 2]].T @ b[:, [0, 2]])
+    r = vt.T @ u.T
+    return math.degrees(math.atan2(r[1, 0], r[0, 0]))

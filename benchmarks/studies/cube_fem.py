@@ -46,7 +46,10 @@ def gauss_gradients(h):
 class Block:
     """The box ``side`` (m) resting unstressed on the plane, its lower corner at the origin, at rest (module notes)."""
 
-    def __init__(self, side, n, E, nu, rho, theta, mu, beta=0.0, g=9.81, cfl=0.3):
+    def __init__(self, side, n, E, nu, rho, theta, mu, beta=0.0, g=9.81, cfl=0.3, law="svk"):
+        if law not in ("svk", "corotated"):
+            raise ValueError(f"law: 'svk' or 'corotated', got {law!r}")
+        self.law = law
         side = np.asarray(side, float)
         self.h = h = float(side.min()) / n
         nx, ny, nz = np.rint(side / h).astype(int)
@@ -75,9 +78,15 @@ class Block:
     def forces(self):
         xe = self.x[self.elems]
         F = np.einsum("eai,gaj->egij", xe, self.G)
-        E = 0.5 * (np.einsum("egki,egkj->egij", F, F) - np.eye(3))
-        S = 2.0 * self.mu_l * E + self.lam * np.trace(E, axis1=2, axis2=3)[..., None, None] * np.eye(3)
-        P = F @ S
+        if self.law == "svk":
+            E = 0.5 * (np.einsum("egki,egkj->egij", F, F) - np.eye(3))
+            S = 2.0 * self.mu_l * E + self.lam * np.trace(E, axis1=2, axis2=3)[..., None, None] * np.eye(3)
+            P = F @ S
+        else:   # fixed corotated (Stomakhin et al. 2012), the MPM engines' jelly: 2 mu (F - R) + lam (J - 1) J F^-T
+            U, _, Vt = np.linalg.svd(F)
+            J = np.linalg.det(F)
+            P = 2.0 * self.mu_l * (F - U @ Vt) + (self.lam * (J - 1.0) * J)[..., None, None] * np.swapaxes(
+                np.linalg.inv(F), 2, 3)
         if self.beta > 0.0:
             L = np.einsum("eai,gaj->egij", self.v[self.elems], self.G)
             D = 0.5 * (L + np.swapaxes(L, 2, 3))
@@ -109,6 +118,36 @@ class Block:
 
     def centroid(self):
         return self.m @ self.x / self.m.sum()
+
+    def tilt(self):
+        """The body's turn about y (degrees, negative downhill): the rotation of the least-squares rigid fit
+        (Kabsch) of its nodes' motion in the x-z plane."""
+        return tilt_deg(self.X, self.x)
+
+    def relax(self, ramp=0.5, hold=1.5):
+        """Dynamic relaxation to rest in the body's own weight at the plane's ``mu`` (as ``gasp_core.seam.settle``
+        does): gravity ramped over ``ramp`` s, then held ``hold`` s, with kinetic damping (Cundall 1976: every
+        velocity zeroed when the kinetic energy falls). Where no stable rest exists the body goes on moving (a block
+        that topples ends on its side)."""
+        g, ke0 = self.gravity.copy(), 0.0
+        for k in range(math.ceil((ramp + hold) / self.dt)):
+            self.gravity = g * min(1.0, k * self.dt / ramp)
+            self.step()
+            ke = float(self.m @ (self.v ** 2).sum(axis=1))
+            if ke < ke0:
+                self.v[:] = 0.0
+                ke = 0.0
+            ke0 = ke
+        self.gravity = g
+
+
+def tilt_deg(x0, x):
+    """The rotation about y (degrees) of the least-squares rigid fit (Kabsch) taking the points ``x0`` (n, 3) to
+    ``x`` in the x-z plane."""
+    a, b = x0 - x0.mean(axis=0), x - x.mean(axis=0)
+    u, _, vt = np.linalg.svd(a[:, [0, 2]].T @ b[:, [0, 2]])
+    r = vt.T @ u.T
+    return math.degrees(math.atan2(r[1, 0], r[0, 0]))
 
 
 def run(n=6, mu=0.6, beta=0.0, theta=30.0, T=1.6, side=(0.1, 0.1, 0.1), E=1e5, settle=0.0, fps=60):
