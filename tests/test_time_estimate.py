@@ -49,3 +49,23 @@ def test_the_json_start_event_carries_the_estimate(donut_small, write_scene, tmp
     events = [json.loads(line) for line in capsys.readouterr().out.splitlines() if line.startswith("{")]
     (start,) = [e for e in events if e["event"] == "start"]
     assert start["estimate_s"] > 0
+
+
+def test_a_settled_start_adds_its_substeps_to_the_estimate():
+    """``settle = true`` runs ``STAGES * STAGE_FRAMES + HOLD_FRAMES`` settle frames before frame 1 (round 84): the
+    estimate counts their substeps at the engine's step rule for a settle frame, and says so."""
+    import sys
+    from pathlib import Path
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from test_elastic_slope import CUBE, block_setup
+
+    from gasp_core.seam.plugins import get_engine
+    from gasp_core.seam.settle import HOLD_FRAMES, STAGE_FRAMES, STAGES, _still, settle_frame_s, settle_substeps
+    plain = start_estimate(66_071, 79, 36)
+    settled = start_estimate(66_071, 79, 36, settle_substeps=140 * 20)
+    assert settled["seconds"] == pytest.approx(plain["seconds"] + 66_071 * 140 * 20 / CPU_RATE)
+    assert "the settle adds 2,800 substeps" in settled["line"] and "settle" not in plain["line"]
+    info = get_engine("warp_mpm")
+    s = block_setup(30, 0.6, "particle", CUBE, 24)
+    n = settle_substeps(info, s)
+    assert n == (STAGES * STAGE_FRAMES + HOLD_FRAMES) * info.substeps(_still(s, 1.0, settle_frame_s(s))) > 0

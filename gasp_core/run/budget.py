@@ -34,18 +34,20 @@ TAKES = ("gasp: the run takes about {time} on a 2-core CPU ({points:,} points x 
          "frames at {rate:.2g} point-substeps/s, docs/performance.md; an H100 ran 11-40 times faster{load})")
 
 
-def start_estimate(points: int, n_substeps: int | None, frames: int, load: tuple | None = None) -> dict | None:
+def start_estimate(points: int, n_substeps: int | None, frames: int, load: tuple | None = None,
+                   settle_substeps: int = 0) -> dict | None:
     """The time a run of ``frames`` frames of ``points`` points at ``n_substeps`` substeps a frame takes at
     :data:`CPU_RATE`: ``{"points", "n_substeps", "frames", "work", "seconds", "line"}`` (``line`` :data:`TAKES`),
     None where the substeps are not known before the engine runs. ``load``: (1-minute load, cores) of this machine;
-    a load above the cores is said (the run takes longer)."""
+    a load above the cores is said (the run takes longer). ``settle_substeps``: the substeps of a settled start
+    before frame 1 (``gasp_core.seam.settle.settle_substeps``), added to the work and said."""
     if n_substeps is None or points <= 0 or frames <= 0:
         return None
-    work = float(points) * float(n_substeps) * float(frames)
+    work = float(points) * (float(n_substeps) * float(frames) + float(settle_substeps))
     seconds = work / CPU_RATE
-    note = ""
+    note = f"; the settle adds {int(settle_substeps):,} substeps" if settle_substeps else ""
     if load is not None and load[1] and load[0] > load[1]:
-        note = f"; this machine's load is {load[0]:.1f} on {load[1]} cores: longer"
+        note += f"; this machine's load is {load[0]:.1f} on {load[1]} cores: longer"
     line = TAKES.format(time=duration_text(seconds), points=int(points), substeps=int(n_substeps), frames=int(frames),
                         rate=CPU_RATE, load=note)
     return {"points": int(points), "n_substeps": int(n_substeps), "frames": int(frames), "work": work,

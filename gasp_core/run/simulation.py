@@ -172,16 +172,18 @@ class SimulationRun:
         import os
         from gasp_core.errors import GaspError
         from gasp_core.run.budget import start_estimate
+        from gasp_core.seam.settle import settle_substeps
         info, setup = self.prep.info, self.prep.setup
         try:
             n_sub = None if info.substeps is None else int(info.substeps(setup))
+            n_settle = settle_substeps(info, setup) if getattr(self.prep.scene, "settle", False) and frames == self.n_frames else 0
         except (GaspError, ValueError, TypeError, ZeroDivisionError, OverflowError):
-            n_sub = None
+            n_sub, n_settle = None, 0
         try:
             load = (os.getloadavg()[0], os.cpu_count())
         except OSError:
             load = None
-        return start_estimate(len(setup.x), n_sub, frames, load)
+        return start_estimate(len(setup.x), n_sub, frames, load, settle_substeps=n_settle)
 
     # ---------------------------------------------------------------- the frames
     def write_frames(self, on_frame: Callable[[int, list[Gaussians]], None] | None) -> float:

@@ -78,6 +78,23 @@ def compression_period(setup) -> float:
     return T
 
 
+def settle_frame_s(setup) -> float:
+    """A settle frame, s: :data:`FRAME_PER_PERIOD` of :func:`compression_period` (the scene's ``frame_dt`` where every
+    body is rigid), at most ``MAX_SETTLE_S`` over the settle's frames."""
+    T = compression_period(setup)
+    return min(FRAME_PER_PERIOD * T if T > 0.0 else setup.frame_dt,
+               MAX_SETTLE_S / (STAGES * STAGE_FRAMES + HOLD_FRAMES))
+
+
+def settle_substeps(info, setup) -> int | None:
+    """The substeps the settle asks of the engine ``info`` (its ``STAGES * STAGE_FRAMES + HOLD_FRAMES`` frames of
+    :func:`settle_frame_s`, each at the engine's step rule ``info.substeps`` for the settle's setup at full gravity),
+    for the run's time estimate; None where the engine has no step rule."""
+    if info.substeps is None:
+        return None
+    return int(info.substeps(_still(setup, 1.0, settle_frame_s(setup)))) * (STAGES * STAGE_FRAMES + HOLD_FRAMES)
+
+
 def check_settle(info, setup) -> None:
     """Raise :class:`SceneError` where ``settle = true`` cannot be done: the engine lacks the feature ``state``, or a
     point has an initial velocity."""
@@ -139,8 +156,7 @@ def settled_state(info, setup) -> tuple[dict, dict]:
     from gasp_core.seam.engine import call_engine
     check_settle(info, setup)
     n_frames = STAGES * STAGE_FRAMES + HOLD_FRAMES
-    T = compression_period(setup)
-    tau = min(FRAME_PER_PERIOD * T if T > 0.0 else setup.frame_dt, MAX_SETTLE_S / n_frames)
+    T, tau = compression_period(setup), settle_frame_s(setup)
     m = np.asarray(setup.p_mass, float)
     state, x, moved = None, np.asarray(setup.x, float), 0.0
     for k in range(1, STAGES + 1):
