@@ -14,6 +14,13 @@ import numpy as np
 #: (a sphere rolls on it: the radius of curvature is its height), the 6 x 6 x 2 cell block's face about 1,500 (issue
 #: 67, ``docs/rigid.md`` "Rolling").
 FLAT_FROM, FLAT_TO = 2.0, 4.0
+#: Round 85: the normal impulses' own moment about the mass centre counts toward what the contact holds. A face holds
+#: the friction's tipping moment up to ``J a`` in all (its centre of pressure moves at most to the patch's edge); where
+#: the normal impulses already lean to the downhill edge (the body has started to turn onto it), their moment is
+#: part of that hold, and only the rest of ``J a`` is held by the rule. Before, the rule held ``J a`` on top of the
+#: normal impulses' own moment: a rigid tall block stood 3-4 degrees past ``atan(w / h)`` and crept instead of tipping
+#: (``tests/test_rigid_tip.py``). False: the rule before (the catch).
+TIP_SHARED = True
 
 
 def contact_flatness(s3: float, deep: float, h: float) -> float:
@@ -154,6 +161,7 @@ def coulomb_friction(V, w, inertia, M: float, c, n, x_f, v_sup, budget: float, J
     deep : float
         The deepest touching point's penetration, m; with ``x_j`` (the normal impulses' centre, m) the patch's
         :func:`contact_flatness` scales ``a`` (a rounded body holds no tipping moment: it rolls; issue 67). 0: a face.
+        ``x_j`` also gives the normal impulses' own moment about ``c``, which counts toward ``J a`` (:data:`TIP_SHARED`).
 
     Returns
     -------
@@ -177,7 +185,10 @@ def coulomb_friction(V, w, inertia, M: float, c, n, x_f, v_sup, budget: float, J
     h = abs(float(np.dot(np.asarray(x_f if x_j is None else x_j, np.float64) - c, n)))
     a = math.sqrt(s3) * contact_flatness(s3, deep, h)
     lh = float(np.linalg.norm(rh))
-    p_hold = J * a / lh if lh > 0.0 else math.inf   # the impulse whose tipping moment the contact can hold
+    hold = J * a   # the tipping moment the contact holds in all, less what its normal impulses already hold
+    if TIP_SHARED and x_j is not None and lh > 0.0:
+        hold = max(hold - max(J * float(np.dot(np.cross(np.asarray(x_j, np.float64) - c, n), rh)) / lh, 0.0), 0.0)
+    p_hold = hold / lh if lh > 0.0 else math.inf   # the impulse whose tipping moment the contact can hold
     p = lt / k_b if p_hold * k_b >= lt else (lt + p_hold * m) / k_a
     p = min(p, budget)
     held = min(p, p_hold)

@@ -4,7 +4,7 @@ Taichi funcs mixed into :class:`gasp_taichi_mpm.rigid.Rigid`; the NumPy referenc
 """
 import taichi as ti
 
-from gasp_core.mpm.rigid_friction import FLAT_FROM, FLAT_TO
+from gasp_core.mpm.rigid_friction import FLAT_FROM, FLAT_TO, TIP_SHARED
 
 
 @ti.func
@@ -133,10 +133,14 @@ class RigidFriction:
                 self.rb_xf[b] = xm
                 a = ti.sqrt(3.0 * s2) * f
                 lh = rh.norm()
+                hold = J * a   # round 85 (TIP_SHARED): less the moment the normal impulses already hold
+                if ti.static(TIP_SHARED):
+                    if lh > 0.0:
+                        hold = ti.max(hold - ti.max(J * (xm - c).cross(n).dot(rh) / lh, 0.0), 0.0)
                 p = lt / k_b
                 held = p
-                if J * a < p * lh:   # more than the contact holds: the rest turns the body
-                    ph = J * a / lh
+                if hold < p * lh:   # more than the contact holds: the rest turns the body
+                    ph = hold / lh
                     p = (lt + ph * m) / k_a
                     held = ph
                 p = ti.min(p, fx[3])

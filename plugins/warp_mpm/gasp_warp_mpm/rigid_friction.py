@@ -9,7 +9,7 @@ import functools
 
 import warp as wp
 
-from gasp_core.mpm.rigid_friction import FLAT_FROM, FLAT_TO
+from gasp_core.mpm.rigid_friction import FLAT_FROM, FLAT_TO, TIP_SHARED
 
 from .precision import MODULE_OPTIONS, build_types
 from .rigid_support import body_inv, roll_flat, roll_point, slip_at, tip
@@ -17,6 +17,7 @@ from .rigid_support import body_inv, roll_flat, roll_point, slip_at, tip
 vec3d = wp.types.vector(3, wp.float64)
 FLAT_0 = wp.constant(wp.float64(FLAT_FROM))   # gasp_core.mpm.rigid_friction.contact_flatness's bounds
 FLAT_W = wp.constant(wp.float64(FLAT_TO - FLAT_FROM))
+TIP_SHARE = wp.constant(int(TIP_SHARED))   # gasp_core.mpm.rigid_friction.TIP_SHARED
 mat33d = wp.types.matrix((3, 3), wp.float64)
 
 
@@ -116,10 +117,14 @@ def build_rigid_contact(Ft):
                 xf[b] = xm
                 a = wp.sqrt(s3) * f
                 lh = wp.length(rh)
+                hold = J * a   # round 85 (TIP_SHARED): less the moment the normal impulses already hold
+                if TIP_SHARE != 0 and lh > wp.float64(0.0):
+                    hold = wp.max(hold - wp.max(J * wp.dot(wp.cross(xm - c, n), rh) / lh, wp.float64(0.0)),
+                                  wp.float64(0.0))
                 p = lt / k_b
                 held = p
-                if J * a < p * lh:   # more than the contact holds: the rest turns the body
-                    ph = J * a / lh
+                if hold < p * lh:   # more than the contact holds: the rest turns the body
+                    ph = hold / lh
                     p = (lt + ph * m) / k_a
                     held = ph
                 p = wp.min(p, fx[3])
