@@ -59,7 +59,7 @@ def fem_row(theta: float, mu: float, n: int) -> dict:
 
 
 def mpm_row(engine: str, theta: float, mu: float, contact: str, n_grid: int, balance: bool = True) -> dict:
-    from cube_fem import tilt_deg
+    from slopes import turn_deg
     from test_elastic_slope import FPS, SETTLE_T, STICK_T, block_setup
 
     from gasp_core.seam.plugins import get_engine
@@ -79,9 +79,9 @@ def mpm_row(engine: str, theta: float, mu: float, contact: str, n_grid: int, bal
     from gasp_core.mpm.contact import TORQUE_REACH
     return {"solver": engine, "contact": contact, "n_grid": n_grid, "theta": theta, "mu": mu, "balance": balance,
             "torque_reach": TORQUE_REACH,
-            "turn_settled_deg": round(tilt_deg(x0, xs[0]), 3),
+            "turn_settled_deg": round(turn_deg(x0, xs[0]), 3),
             "travel_mm": round(1000 * float(np.linalg.norm(c[-1] - c[k])), 3),
-            "turn_end_deg": round(tilt_deg(x0, xs[-1]), 3), "settle": stats.settle,
+            "turn_end_deg": round(turn_deg(x0, xs[-1]), 3), "settle": stats.settle,
             "warnings": [str(x.message)[:100] for x in w if "settle" in str(x.message)],
             "wall_s": round(time.time() - t0)}
 
