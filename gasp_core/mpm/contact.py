@@ -75,9 +75,11 @@ SUMS = ("m", "mx", "my", "mz", "mxx", "mxy", "mxz", "myy", "myz", "mzz", "px", "
 #: Columns of the per-support sums of the contact's balance (a support: one body against the grounds, or against
 #: one collider): the normal impulses' magnitude J, its first moments, the impulse vector ``sum j n``, its moment
 #: about the origin ``sum x x j n``, ``sum j v_col`` (the support's velocity at the points), the pushed points' mass
-#: ``m`` (round 59: the balance's closing bound) and box.
+#: ``m`` (round 59: the balance's closing bound) and box; then the impulses' second moments ``sum j x x^T`` and ``sum j^2``
+#: (round 86: :mod:`gasp_core.mpm.take_back`).
 JSUMS = ("j", "jx", "jy", "jz", "jnx", "jny", "jnz", "mnx", "mny", "mnz", "jvx", "jvy", "jvz", "m",
-         "x_min", "x_max", "y_min", "y_max", "z_min", "z_max")
+         "x_min", "x_max", "y_min", "y_max", "z_min", "z_max", "jxx", "jxy", "jxz", "jyy", "jyz", "jzz", "jj")
+
 #: Round 58 (docs/contact.md "Round 58: the sand's base slips at Coulomb's bound"): the contact a sand body takes
 #: under ``contact = "auto"``: ``"grid"`` (with snow and liquid, the rule since issue 38) or ``"particle"`` (as the
 #: bodies that do not flow). Read by :func:`grid_flows` when a setup is built.

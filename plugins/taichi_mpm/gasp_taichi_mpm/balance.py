@@ -32,13 +32,16 @@ support over chunks of list entries by a fixed tree, then applied one thread a n
 import numpy as np
 import taichi as ti
 
-from gasp_core.mpm.contact import JSUMS, TORQUE_REACH
+from gasp_core.mpm.contact import JSUMS, REACH, TORQUE_REACH
 from gasp_core.mpm.contact_mark import (MARK_OCTAVES_BELOW, MARK_Q_MAX, MARK_ROW_BITS, MARK_ROW_MASK, MARK_STEPS,
                                         check_mark_rows)
 
 from .balance_bound import closing_bound
 from .schedule.ordered import N_PARTS
+from .take_back import PLANE_RULE, unresolved_fraction
 
+#: ``c_jsums``' column of ``sum j x_q x_r`` (q <= r): ``gasp_core.mpm.contact.JSUMS`` "jxx" ... "jzz".
+SECOND_COL = ((20, 21, 22), (21, 23, 24), (22, 24, 25))
 #: Columns of a listed node's terms (:meth:`Balance.node_terms`): fr_sums[s, :17].
 N_NODE_TERMS = 17
 
@@ -145,6 +148,8 @@ class Balance:
         """Support s's contact sums cleared, its box of pushed points inverted."""
         for q in ti.static(range(14)):
             self.c_jsums[s, q] = 0.0
+        for q in ti.static(range(20, 27)):
+            self.c_jsums[s, q] = 0.0
         for d in ti.static(range(3)):
             self.c_jsums[s, 14 + 2 * d] = 1.0e30
             self.c_jsums[s, 15 + 2 * d] = -1.0e30
@@ -174,6 +179,10 @@ class Balance:
                     self.add_support_fixed(s, 7 + q, mn[q])
                     self.add_support_fixed(s, 10 + q, v[q])
                 self.add_support_fixed(s, 13, mp)
+                for q in ti.static(range(3)):   # round 86: sum j x x^T, sum j^2 (gasp_core.mpm.take_back)
+                    for r in ti.static(range(q, 3)):
+                        self.add_support_fixed(s, SECOND_COL[q][r], j * x[q] * x[r])
+                self.add_support_fixed(s, 26, j * j)
             else:
                 ti.atomic_add(self.c_jsums[s, 0], j)
                 for q in ti.static(range(3)):
@@ -182,6 +191,10 @@ class Balance:
                     ti.atomic_add(self.c_jsums[s, 7 + q], mn[q])
                     ti.atomic_add(self.c_jsums[s, 10 + q], v[q])
                 ti.atomic_add(self.c_jsums[s, 13], mp)
+                for q in ti.static(range(3)):   # round 86: sum j x x^T, sum j^2 (gasp_core.mpm.take_back)
+                    for r in ti.static(range(q, 3)):
+                        ti.atomic_add(self.c_jsums[s, SECOND_COL[q][r]], j * x[q] * x[r])
+                ti.atomic_add(self.c_jsums[s, 26], j * j)
             for q in ti.static(range(3)):
                 ti.atomic_min(self.c_jsums[s, 14 + 2 * q], x[q])
                 ti.atomic_max(self.c_jsums[s, 15 + 2 * q], x[q])
@@ -328,8 +341,11 @@ class Balance:
             tq = tn + tf + (xm - c).cross(dF)
             th = tq - tq.dot(nb) * nb   # the twist about the normal is kept
             lh = th.norm()
-            if lh > J * self.c_reach[b] * TORQUE_REACH:
-                th *= J * self.c_reach[b] * TORQUE_REACH / lh
+            clip = J * self.c_reach[b] * TORQUE_REACH
+            if ti.static(PLANE_RULE):   # round 86: bounded by the patch's departure from a plane (take_back.py)
+                clip *= unresolved_fraction(self.c_jsums, s, nb, self.c_reach[b] / REACH)
+            if lh > clip:
+                th *= clip / lh
             th = self.keep_braking(th, ti.Vector([self.c_shift[b, 9], self.c_shift[b, 10], self.c_shift[b, 11]],
                                                  ti.f64),
                                    ti.Vector([self.c_shift[b, 6], self.c_shift[b, 7], self.c_shift[b, 8]], ti.f64), nb)

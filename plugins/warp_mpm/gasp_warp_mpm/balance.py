@@ -38,18 +38,20 @@ import functools
 
 import warp as wp
 
-from gasp_core.mpm.contact import TORQUE_REACH
+from gasp_core.mpm.contact import REACH as REACH_SPACINGS, TORQUE_REACH
 from gasp_core.mpm.contact_mark import MARK_OCTAVES_BELOW, MARK_Q_MAX, MARK_ROW_BITS, MARK_ROW_MASK, MARK_STEPS
 
 from .contact import build_collider_contact, build_contact, build_contact_impulse
 from .forces import build_extras_struct
 from .precision import MODULE_OPTIONS, build_types
+from .take_back import PLANE_RULE, unresolved_fraction
 
 #: Columns of ``fr_sums``: friction force (3), contact nodes' mass (1), mass moments (3 + 6), friction's moment
 #: about the origin (3), friction budget (1), then the per-body results dv (3), alpha (3), x_m (3).
 FR_COLUMNS = 26
 #: ``gasp_core.mpm.contact.TORQUE_REACH`` for the kernels.
 TORQUE_CLIP = wp.constant(TORQUE_REACH)
+REACH_H = wp.constant(REACH_SPACINGS)
 
 
 f64 = wp.float64
@@ -136,6 +138,8 @@ def add_contact(jsums: wp.array2d(dtype=f64), s: int, j: f64, r: v64, n: v64, vc
         wp.atomic_add(jsums, s, 10 + q, j * vc[q])
         wp.atomic_min(jsums, s, 14 + 2 * q, r[q])
         wp.atomic_max(jsums, s, 15 + 2 * q, r[q])
+    add_second_moments(jsums, s, 20, j, r)
+    wp.atomic_add(jsums, s, 26, j * j)
 
 
 @functools.cache
@@ -360,6 +364,8 @@ def body_fix(s: int, b: int, shift: wp.array2d(dtype=f64), jsums: wp.array2d(dty
         th = tq - wp.dot(tq, nb) * nb   # the twist about the normal is kept
         lh = wp.length(th)
         clip = J * reach * f64(TORQUE_CLIP)
+        if PLANE_RULE != 0:   # round 86: bounded by the patch's departure from a plane (gasp_core.mpm.take_back)
+            clip = clip * unresolved_fraction(jsums, s, nb, reach / f64(REACH_H))
         if lh > clip:
             th = th * (clip / lh)
         th = keep_braking(th, v64(shift[b, 6], shift[b, 7], shift[b, 8]), v64(shift[b, 9], shift[b, 10], shift[b, 11]),

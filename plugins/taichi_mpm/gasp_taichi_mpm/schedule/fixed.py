@@ -22,6 +22,8 @@ reductions (e.g. Demmel & Nguyen 2013, reproducible summation; PhysX/Warp's dete
 import numpy as np
 import taichi as ti
 
+from gasp_core.mpm.contact import JSUMS
+
 #: Scale of a channel's bound: its sums are kept in ``[-2**62, 2**62]`` units of ``bound / 2**62``.
 FIXED_BITS = 62
 #: Headroom on the speed ``dx / dt`` and on ``J`` in the bounds (module notes).
@@ -43,16 +45,18 @@ def channel_bounds(acc_width: int, eta_channel: int, *, mass: float, volume: flo
 
 
 def support_bounds(mass: float, dx: float, dt: float, lo, n_grid: int) -> np.ndarray:
-    """Per column of the contact's support sums ``c_jsums[:, :14]`` (``gasp_core.mpm.contact.JSUMS``: j, j x, j n,
-    x cross j n, j v_c, the pushed points' mass m; float64, SI units) the largest sum a stable substep reaches: the
-    impulse ``J = M 64 dx / dt`` (kg m/s), times the farthest coordinate of the grid ``L`` (m) for the first moments,
-    ``2 L`` for the moments, and times the speed ``64 dx / dt`` for the supports' velocities; the mass ``2 M``."""
+    """Per column of the contact's support sums ``c_jsums`` (``gasp_core.mpm.contact.JSUMS``: j, j x, j n,
+    x cross j n, j v_c, the pushed points' mass m, the box, j x x^T, j^2; float64, SI units) the largest sum a stable
+    substep reaches: the impulse ``J = M 64 dx / dt`` (kg m/s), times the farthest coordinate of the grid ``L`` (m)
+    for the first moments, ``2 L`` for the moments, ``L^2`` for the second moments, and times the speed
+    ``64 dx / dt`` for the supports' velocities; the mass ``2 M``; ``J^2``; 1 for the box's six columns (min and
+    max, never summed in fixed point)."""
     lo = np.abs(np.asarray(lo, np.float64))
     far = float(np.max(np.maximum(lo, np.abs(np.asarray(lo) + n_grid * dx)))) if lo.size else 1.0
     speed = HEADROOM * dx / dt
     jb = max(mass, 1e-30) * speed
     return np.array([jb] + [jb * far] * 3 + [jb] * 3 + [2 * jb * far] * 3 + [jb * speed] * 3
-                    + [2.0 * max(mass, 1e-30)])
+                    + [2.0 * max(mass, 1e-30)] + [1.0] * 6 + [jb * far * far] * 6 + [jb * jb])
 
 
 def not_covered(solver) -> list[str]:
@@ -79,8 +83,8 @@ class FixedPointP2G:
         self.grid_q = ti.Vector.field(self.acc_width, ti.i64, shape=(ng, ng, ng))
         self.q_scale = ti.Vector.field(self.acc_width, ti.f64, shape=())
         self.jq_rows = self.c_jsums.shape[0] if on and hasattr(self, "c_jsums") else 1
-        self.c_jq = ti.field(ti.i64, shape=(self.jq_rows, 14))
-        self.jq_scale = ti.field(ti.f64, shape=14)
+        self.c_jq = ti.field(ti.i64, shape=(self.jq_rows, len(JSUMS)))
+        self.jq_scale = ti.field(ti.f64, shape=len(JSUMS))
         if on:
             self.jq_scale.from_numpy(2.0 ** FIXED_BITS / support_bounds(float(np.sum(p_mass[:self.n_material])), dx,
                                                                         dt, lo, self.n_grid))

@@ -55,6 +55,8 @@ def acc_contact(part: wp.array3d(dtype=f64), blk: int, s: int, j: f64, r: v64, n
         part[blk, s, 10 + q] = part[blk, s, 10 + q] + j * vc[q]
         part[blk, s, 14 + 2 * q] = wp.min(part[blk, s, 14 + 2 * q], r[q])
         part[blk, s, 15 + 2 * q] = wp.max(part[blk, s, 15 + 2 * q], r[q])
+    acc_second(part, blk, s, 20, j, r)   # round 86: sum j x x^T, then sum j^2 (gasp_core.mpm.take_back)
+    part[blk, s, 26] = part[blk, s, 26] + j * j
 
 
 @functools.cache
@@ -150,13 +152,13 @@ def build_row_sums(Ft):
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def fold_rows(part: wp.array3d(dtype=f64), out: wp.array2d(dtype=f64), box_from: int):
-        # one thread per (row, column) of the partials: the blocks in block order; from column box_from on, the
-        # columns alternate min and max (the pushed points' box)
+        # one thread per (row, column) of the partials: the blocks in block order; the six columns from box_from on
+        # alternate min and max (the pushed points' box)
         t = wp.tid()
         nc = part.shape[2]
         row = t / nc
         c = t % nc
-        if c < box_from:
+        if c < box_from or c >= box_from + 6:   # sums; the box's six columns alternate min and max
             s = f64(0.0)
             for blk in range(part.shape[0]):
                 s = s + part[blk, row, c]
@@ -213,6 +215,8 @@ def build_fix(Ft):
         for q in range(26):
             fr_sums[s, q] = f64(0.0)
         for q in range(14):
+            jsums[s, q] = f64(0.0)
+        for q in range(20, 27):
             jsums[s, q] = f64(0.0)
         for d in range(3):
             jsums[s, 14 + 2 * d] = f64(1.0e30)

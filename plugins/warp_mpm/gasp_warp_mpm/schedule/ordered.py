@@ -180,6 +180,8 @@ def build_contact_fix(Ft):
                 fr_sums[s, q] = f64(0.0)
             for q in range(14):
                 jsums[s, q] = f64(0.0)
+            for q in range(20, 27):
+                jsums[s, q] = f64(0.0)
             for d in range(3):   # the box of the pushed points, inverted
                 jsums[s, 14 + 2 * d] = f64(1.0e30)
                 jsums[s, 15 + 2 * d] = f64(-1.0e30)
