@@ -59,13 +59,15 @@ def test_the_mirror_scene_puts_the_rigid_body_in_field_b():
 def test_a_rigid_field_b_rolls_and_slips_with_the_mirror_rule(engine, on):
     """n_grid 24, R 4.5 cm, 18 cm long, on a slab 9 cm wide: with the rule the roll (mu 0.5) and the slip (mu 0.05)
     are within 5 % (measured -4.31 % and -3.65 %, warp_mpm; -2.56 % and -2.57 % since round 83's domain read); the catch, the rule off (the friction on both fields):
-    -7.41 % and -17.7 %, ``w R / v`` 0.63 in the slip."""
+    -7.41 % and -17.7 %, ``w R / v`` 0.63 in the slip; since round 86 (``gasp_core.mpm.take_back``) -4.68 % and
+    -18.3 %: the slip fails the check."""
     _need(engine)
     roll = _run(engine, 24, 0.045, 0.18, 0.09, 0.5, on)
     slip = _run(engine, 24, 0.045, 0.18, 0.09, 0.05, on)
-    assert _slope_ok(roll) == on and _slope_ok(slip) == on, (engine, on, roll, slip)
-    if not on:
-        assert roll["err"] < -0.05 and slip["err"] < -0.05, (roll, slip)
+    if on:
+        assert _slope_ok(roll) and _slope_ok(slip), (engine, on, roll, slip)
+    else:   # round 86 (the take-back's plane bound): the roll without the rule -4.68 %, inside; the slip fails
+        assert not (_slope_ok(roll) and _slope_ok(slip)) and slip["err"] < -0.05, (roll, slip)
 
 
 def _family():

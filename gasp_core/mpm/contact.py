@@ -65,7 +65,9 @@ REACH = 1.0
 #: The torque taken back reaches ``TORQUE_REACH`` times that lever; the mass centre may lie ``REACH`` spacings beyond
 #: the pushed points' box before the body is left to tip. A ball of points jittered by +-3 mm at n_grid 32 (spacing
 #: 5.1 mm) had its centre of pressure up to 6.1 mm off: at 1 spacing, 2.8 % of its impulse kept a lever and it spun
-#: up 0.04 rad/s a bounce (travel 5.8 mm); ``tip_over`` (2 spacings beyond its edge) bounds the gate.
+#: up 0.04 rad/s a bounce (travel 5.8 mm); ``tip_over`` (2 spacings beyond its edge) bounds the gate. Since round 86
+#: the bound is scaled by the patch's departure from a plane (:mod:`gasp_core.mpm.take_back`): a flat base keeps its
+#: torque.
 TORQUE_REACH = 2.0
 # Of the torque it would take back, the balance keeps the part that brakes the body's horizontal spin, up to stopping
 # it (the engines' ``keep_braking``): it takes back what would start a spin, never what stops one (docs/contact.md).
@@ -103,8 +105,9 @@ CONTACT = Option("contact", "auto", "ground and collider contact: 'particle' (a 
 #: Engine option ``contact_balance`` of the MPM engines.
 BALANCE = Option("contact_balance", True, "the particle contact's balance (docs/contact.md, issue 38): each body's "
                  "net friction is Coulomb's on its rigid motion and the contact torque of a centre of pressure "
-                 "within a point spacing of its mass centre is taken back; false: the raw per-point contact, on "
-                 "which bodies of irregular points turn and roll (10-80 mm)", kind="bool")
+                 "within a point spacing of its mass centre is taken back where its pushed points do not lie in a "
+                 "plane; false: the raw per-point contact, on which bodies of irregular points turn and roll "
+                 "(10-80 mm)", kind="bool")
 
 
 def contact_model(setup) -> str:

@@ -20,7 +20,7 @@ plane has ``rho = s / sqrt(12)``: it resolves nothing. The bound is scaled by
     f = min(1, sqrt(12) rho / (SKIN h)),
 
 with ``f = 1`` where ``n_eff <= 3`` (three points always lie in a plane) and ``f = 0`` on collinear points (an edge,
-about which the body pivots). Measured (warp_mpm, round 86): a flat base ``rho`` 0.001 h (the tall block; f 0.007);
+about which the body pivots). Measured (round 86, ``docs/contact.md``): a flat base ``rho`` 0.001 h (the tall block; f 0.007);
 the conformance suite's jittered ball at rest 0.01-0.05 h with ``n_eff`` 5-9; its lattice ball at impact
 0.003-0.03 h.
 """

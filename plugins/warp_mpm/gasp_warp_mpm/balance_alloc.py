@@ -22,8 +22,9 @@ def allocate_balance(engine, planes: list, Ft, n_sup: int = 1) -> None:
     engine.n_sup = n_sup
     check_mark_rows(nb * n_sup)
     jsums = np.zeros((nb * n_sup, len(JSUMS)))
-    jsums[:, JSUMS.index("x_min")::2] = 1.0e30   # the box of the pushed points starts inverted
-    jsums[:, JSUMS.index("x_max")::2] = -1.0e30
+    box = JSUMS.index("x_min")
+    jsums[:, box:box + 6:2] = 1.0e30   # the box of the pushed points starts inverted
+    jsums[:, box + 1:box + 6:2] = -1.0e30
     engine.c_sums = wp.zeros((nb, len(SUMS)), dtype=f64, device=d)
     engine.c_jsums = wp.array(jsums, dtype=f64, device=d)
     engine.c_shift = wp.zeros((nb, 12), dtype=f64, device=d)
