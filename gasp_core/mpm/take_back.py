@@ -20,9 +20,9 @@ plane has ``rho = s / sqrt(12)``: it resolves nothing. The bound is scaled by
     f = min(1, sqrt(12) rho / (SKIN h)),
 
 with ``f = 1`` where ``n_eff <= 3`` (three points always lie in a plane) and ``f = 0`` on collinear points (an edge,
-about which the body pivots). Measured (round 86, ``docs/contact.md``): a flat base ``rho`` 0.001 h (the tall block; f 0.007);
-the conformance suite's jittered ball at rest 0.01-0.05 h with ``n_eff`` 5-9; its lattice ball at impact
-0.003-0.03 h.
+about which the body pivots). Measured (round 86, ``docs/contact.md``, ``benchmarks/studies/patch_plane86.py``): a
+flat base ``rho`` 0.001 h (the tall block; f 0.007); the conformance suite's jittered ball at rest 0.024-0.045 h
+with ``n_eff`` 5-9 (f 0.26-0.39); its lattice ball at impact 0.003-0.009 h (f 0.03-0.07).
 """
 from __future__ import annotations
 
