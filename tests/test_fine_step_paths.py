@@ -27,7 +27,6 @@ the transfer before failing it.
 from __future__ import annotations
 
 import importlib.util
-import subprocess
 import sys
 from pathlib import Path
 
@@ -36,6 +35,7 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks" / "studies"))
 import finestep_paths  # noqa: E402
+from fresh_process import last_line  # noqa: E402
 
 ENGINES = [e for e in ("taichi_mpm", "warp_mpm") if importlib.util.find_spec(f"gasp_{e}") is not None]
 #: The tolerance, relative to the frame's free-fall speed ``g t`` (0.327 m/s).
@@ -96,8 +96,6 @@ def test_the_check_catches_the_transfer_before(monkeypatch):
 
 
 FREE_FLIGHT = """
-import sys
-sys.path.insert(0, {tests!r})
 import gasp_core.mpm.take_back as tb
 tb.PLANE_BOUND = False
 from gasp_core.mpm import flow_reach, restitution
@@ -127,10 +125,7 @@ def test_the_check_catches_the_free_flight_rule():
     which the rule of rounds before 60 failed: the touch of rounds 37-74 (``FLOW_REACH`` off) and the take-back of
     rounds 38-85 (``PLANE_BOUND`` off, set before the kernels compile: a fresh process), where it leaves at +0.400
     m/s."""
-    code = FREE_FLIGHT.format(tests=str(Path(__file__).resolve().parent))
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
-    assert out.returncode == 0, out.stderr[-2000:]
-    last = out.stdout.strip().splitlines()[-1]
+    last = last_line(FREE_FLIGHT)
     assert last.startswith("failed") and ("at the default step" in last or "2x the substeps" in last), last
 
 

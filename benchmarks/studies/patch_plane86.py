@@ -26,18 +26,16 @@ sys.path.insert(0, str(HERE.parents[2] / "tests"))
 def patch_row(x: np.ndarray, h: np.ndarray, ground: float) -> dict:
     """The patch figures of positions ``x`` (m) with spacings ``h`` (m) on a ground at ``ground`` (m)."""
     from gasp_core.mpm.contact import SKIN
-    from gasp_core.mpm.take_back import unresolved_fraction
+    from gasp_core.mpm.take_back import plane_departure, unresolved_fraction
     d = ground + SKIN * h - x[:, 2]
     m = d > 0
     if m.sum() == 0:
         return {"n": 0}
-    w, X, hm = d[m], x[m], float(np.median(h))
+    w, X, hm, up = d[m], x[m], float(np.median(h)), np.array([0.0, 0.0, 1.0])
     J = w.sum()
-    C = np.cov(X.T, aweights=w, bias=True)
-    dtt = np.linalg.det(C[:2, :2])
-    rho = float(np.sqrt(max(np.linalg.det(C) / dtt, 0.0))) if dtt > 0 else 0.0
-    return {"n": int(m.sum()), "n_eff": round(float(J * J / (w * w).sum()), 1), "rho_h": round(rho / hm, 4),
-            "f": round(unresolved_fraction(w, X, np.array([0.0, 0.0, 1.0]), hm), 4)}
+    rho2 = plane_departure(np.cov(X.T, aweights=w, bias=True), up)
+    return {"n": int(m.sum()), "n_eff": round(float(J * J / (w * w).sum()), 1),
+            "rho_h": round(float(np.sqrt(rho2 or 0.0)) / hm, 4), "f": round(unresolved_fraction(w, X, up, hm), 4)}
 
 
 def ball_rows(engine: str, which: str) -> list[dict]:

@@ -66,15 +66,25 @@ def unresolved_fraction(j: np.ndarray, x: np.ndarray, n: np.ndarray, h: float) -
         return 1.0
     xb = j @ x / J
     second = np.einsum("i,ij,ik->jk", j, x, x) / J
-    return fraction_from_moments(J, jj, xb, second - np.outer(xb, xb), np.asarray(n, np.float64), h)
+    return fraction_from_moments(J, jj, second - np.outer(xb, xb), np.asarray(n, np.float64), h)
 
 
-def fraction_from_moments(J: float, jj: float, xb: np.ndarray, C: np.ndarray, n: np.ndarray, h: float) -> float:
-    """:func:`unresolved_fraction` from a support's sums: ``J``, ``sum j^2``, the impulses' centre ``xb`` (m) and
-    covariance ``C`` (m^2, 3 x 3), the normal ``n`` and the spacing ``h`` (m): the kernels' steps."""
+def fraction_from_moments(J: float, jj: float, C: np.ndarray, n: np.ndarray, h: float) -> float:
+    """:func:`unresolved_fraction` from a support's sums: ``J``, ``sum j^2``, the impulses' covariance ``C`` about
+    their centre (m^2, 3 x 3), the normal ``n`` and the spacing ``h`` (m): the kernels' steps."""
     ne = J * J / jj
     if ne <= 3.0:
         return 1.0
+    rho2 = plane_departure(C, n)
+    if rho2 is None:
+        return 0.0
+    return float(min(1.0, np.sqrt(12.0 * rho2 * ne / (ne - 3.0)) / (SKIN * h)))
+
+
+def plane_departure(C: np.ndarray, n: np.ndarray) -> float | None:
+    """``rho^2`` (m^2), the mean square departure of heights along the unit normal ``n`` from their best plane, of
+    points with covariance ``C`` (m^2, 3 x 3): ``det C / det C_tt``, without the small-sample correction; None where
+    the points are collinear in the tangent plane (``det C_tt <= COLLINEAR (tr C_tt)^2``)."""
     a = np.array([0.0, 1.0, 0.0]) if abs(n[0]) > 0.9 else np.array([1.0, 0.0, 0.0])
     e1 = np.cross(n, a)
     e1 /= np.linalg.norm(e1)
@@ -82,6 +92,5 @@ def fraction_from_moments(J: float, jj: float, xb: np.ndarray, C: np.ndarray, n:
     c11, c12, c22 = e1 @ C @ e1, e1 @ C @ e2, e2 @ C @ e2
     dtt = c11 * c22 - c12 * c12
     if dtt <= COLLINEAR * (c11 + c22) ** 2:
-        return 0.0
-    rho2 = max(float(np.linalg.det(C)) / dtt, 0.0) * ne / (ne - 3.0)
-    return float(min(1.0, np.sqrt(12.0 * rho2) / (SKIN * h)))
+        return None
+    return max(float(np.linalg.det(C)) / dtt, 0.0)
