@@ -23,7 +23,8 @@ before, ``colouring.COLOUR = False``: one shared field):
   dropped from out of reach onto a slab a cube rests on (``scenes_three.land3``, n_grid 32, 2 s): its rest gap over
   the slab within :data:`LAND_TOL` of the same ball's on the slab alone (two bodies): +0.205 against +0.193 dx on
   warp_mpm. The catch: the colouring made once at build (the ball, alone at the start, in the slab's field): +1.185.
-  Round 73: a strict xfail under the trapezoid (:data:`ROLLS_OFF`: the reference ball rolls off the slab).
+  Round 73: a strict xfail under the trapezoid (the reference ball rolled off the slab); it passes since round 86's
+  take-back (round 87: +0.201 against +0.194 dx, warp_mpm).
 """
 from __future__ import annotations
 
@@ -167,22 +168,15 @@ def _land_ok(engine):
     return abs(three - two) <= LAND_TOL, (three, two)
 
 
-#: Round 73 (verify73 found it; the lead measured why, warp_mpm, ``scenes_three.land3`` at n_grid 32): under the
-#: trapezoidal stress (the default since round 70) the reference, the ball landed on the slab *alone*, does not rest on
-#: the slab: its landing near the slab's end kicks it sideways (under "start" too: x 100 -> 148 mm) and, with less
-#: numerical damping, it rolls on (x 214 mm at 1.5 s) off the slab's end (0.2 m) onto the ground (z 112 -> 60 mm), so
-#: its "gap" reads 0.431 dx against the ball beside the cube's 0.205 (taichi_mpm 0.429 / 0.206). Under "start" it
-#: rests: 0.193 / 0.205 dx; "mid" 0.204 / 0.213. The colouring is not in question (the once-made catch still fails);
-#: the scene's reference is. Not fixed this round.
-ROLLS_OFF = ("under the trapezoid the ball alone rolls off the slab's end: 0.431 dx against 0.205 beside the cube "
-             "(round 73; under stress_at 'start' 0.193 / 0.205)")
-
-
+# Round 73 (verify73 found it; the lead measured why, warp_mpm, ``scenes_three.land3`` at n_grid 32): under the
+# trapezoidal stress (the default since round 70) the reference, the ball landed on the slab *alone*, rolled off the
+# slab's end (0.431 dx against the ball beside the cube's 0.205), a strict xfail until round 87. Round 87 found it
+# passing: since round 86 the balance no longer takes back the torque of a flat patch (``gasp_core.mpm.take_back``),
+# and the ball alone rests on the slab (0.194 dx against 0.201 beside the cube, warp_mpm; taichi_mpm 0.195 / 0.200).
+# With ``PLANE_BOUND`` off (round 85's take-back) it reads 0.431 dx again (warp_mpm, a probe).
 @pytest.mark.slow
 @pytest.mark.parametrize("engine", ENGINES)
-@pytest.mark.parametrize("recolour", [pytest.param(True, id="per-frame", marks=pytest.mark.xfail(strict=True,
-                                                                                               reason=ROLLS_OFF)),
-                                      pytest.param(False, id="once-caught")])
+@pytest.mark.parametrize("recolour", [pytest.param(True, id="per-frame"), pytest.param(False, id="once-caught")])
 def test_a_body_that_meets_another_later_lands_as_alone(engine, recolour, monkeypatch):
     """Per frame: the ball rests on the slab as it does without the cube; made once at build (the catch): it shares
     the slab's field and is held about a cell over it."""
