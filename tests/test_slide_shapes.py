@@ -37,7 +37,8 @@ same figures to the digits shown):
   merged) holds it (0.15-0.33 mm) but loses issue 38's jittered balls or a soft figure of ``tests/test_stand.py``.
   **Round 87:** it holds, 0.247 mm at n_grid 24 and 0.128 mm at 32 (both engines, to the digits shown): since round
   86 the balance takes back no torque on a flat base (``gasp_core.mpm.take_back``), as round 52's "no take-back" run
-  found (0.24 / 0.12 mm). Its two strict xfails passed in round 87's slow tier and are gone.
+  found (0.24 / 0.12 mm); with ``PLANE_BOUND`` off it slips 5.67 / 5.81 mm (warp_mpm). Its two strict xfails
+  passed in round 87's slow tier and are gone.
 
 ``test_the_checks_catch_broken_engines``: on the disc (rigid, particle contact) and the hexagonal prism (jelly, grid
 contact), n_grid 24: an engine that ignores mu (0.4 always) or brakes at a rest speed (0.1 m/s) fails the slide, one
