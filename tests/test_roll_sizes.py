@@ -10,8 +10,10 @@ translation is Coulomb's on every case (within 0.02 %), but its spin-up falls sh
 by up to 43.5 %, and the 5 cm ball's roll at n_grid 48 is 6.5 % slow. Those are strict xfails (``MISSES``) with their
 figures. The spin-up follows how densely the Gaussians sample the ball, not the grid alone. On the flat ground, a ball
 thrown sliding at 0.5 m/s at mu 0.05 spins up at 0.21 of ``mu g / k`` (R 0.05 m, n_grid 48, 804 Gaussians) and at
-0.97 with 3,217. The 10 cm ball at n_grid 24 spins up at 0.999 with 3,217 and at 0.625 with 200. Not fixed in
-round 87; the cause is not found (not the flatness rule, the take-back, the balance, or the fill's contact).
+0.97 with 3,217. The 10 cm ball at n_grid 24 spins up at 0.999 with 3,217 and at 0.625 with 200. The cause (round 87,
+found, not fixed): the body rests on its Gaussians, so a ball rolls as the polyhedron they sample, each vertex that
+comes down an inelastic impact (rolling resistance ``c_rr`` 0.023 with 804 Gaussians on the 5 cm ball, 0.0023 with
+3,217); the next class is the ground contact on the round body's exact shape (``roll_contact``'s sphere).
 
 The checks are ``test_rolling``'s, each shown failing on engines broken on purpose there
 (``test_rolling.test_the_checks_catch_broken_engines``); here the family fails the five neighbours above.
