@@ -22,12 +22,14 @@ sys.path.insert(0, str(ROOT / "tests"))
 import test_rolling as rl  # noqa: E402
 
 MUS = (rl.ROLL_MU, rl.SLIP_MU)
+#: The test's own ball (radius m, Gaussians): the shell's density every radius keeps.
+REF_R, REF_SHELL = rl.R, rl.N_SHELL
 
 
 def configure(radius: float, n_grid: int) -> None:
     """Set ``test_rolling``'s module constants to a ball of ``radius`` (m) on ``n_grid``."""
     rl.R, rl.N_GRID, rl.DX = radius, n_grid, rl.SIDE / n_grid
-    rl.N_SHELL = int(round(3217 * (radius / 0.1) ** 2))
+    rl.N_SHELL = int(round(REF_SHELL * (radius / REF_R) ** 2))
 
 
 def row(engine: str, radius: float, n_grid: int, mu: float) -> dict:
