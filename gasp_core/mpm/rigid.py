@@ -23,6 +23,7 @@ import numpy as np
 
 from gasp_core.mpm.contact import DAMPING, SKIN, rigid_bodies
 from gasp_core.mpm.materials import P_LAM, P_MU
+from gasp_core.mpm.round_ground import ground_radius, sphere_depth
 
 #: Elastic modulus (Pa) a rigid body shows the step and contact rules of the grid engines
 #: (:func:`step_view`): small enough that neither its wave speed nor its contact frequency sets a step.
@@ -112,9 +113,12 @@ def face_counts(setup) -> np.ndarray:
     out = np.ones(len(setup.materials))
     body, vol = np.asarray(setup.body_id), np.asarray(setup.p_vol, np.float64)
     touching = touch_rows(setup)
+    sphere = ground_radius(setup)
     for b in np.flatnonzero(rigid_mask(setup.materials)):
         sel = (body == b) & (vol > 0.0)
-        if sel.any():
+        if sphere[b] > 0.0:   # round 88: all its points with mass take the contact (round_ground)
+            out[b] = max(int(np.sum((body == b) & (np.asarray(setup.p_mass, np.float64) > 0.0))), 1)
+        elif sel.any():
             out[b] = max(face_points(np.asarray(setup.x)[sel & touching], float(np.median(np.cbrt(vol[sel])))), 1)
     return out
 
@@ -177,8 +181,14 @@ def rigid_contact(setup, dt: float, coeffs: np.ndarray) -> np.ndarray:
     m, vol = np.asarray(setup.p_mass, np.float64), np.asarray(setup.p_vol, np.float64)
     surface = np.arange(len(vol)) < int(getattr(setup, "n_render", 0) or 0)   # the scene's own Gaussians
     touching = touch_rows(setup)
+    sphere = ground_radius(setup)   # round 88: a sphere meets the planes on its exact sphere
     for b in np.flatnonzero(rigid_mask(setup.materials)):
         sel = (body == b) & (vol > 0.0)
+        if sphere[b] > 0.0:   # every point its mass's share of the body's stiffness, no skin (round_ground)
+            rows = body == b
+            kp = (RIGID_OMEGA_DT / dt) ** 2 * m[rows]
+            out[rows] = np.column_stack([kp, 2.0 * RIGID_DAMPING * np.sqrt(kp * m[rows]), np.zeros(rows.sum())])
+            continue
         if not sel.any():
             continue
         h = float(np.median(np.cbrt(vol[sel])))
@@ -216,12 +226,16 @@ def lift_setup(setup):
     x = np.array(setup.x, dtype=np.float64)
     body, vol = np.asarray(setup.body_id), np.asarray(setup.p_vol, np.float64)
     moved, touching = False, touch_rows(setup)
+    sphere, m = ground_radius(setup), np.asarray(setup.p_mass, np.float64)
     for b in np.flatnonzero(rigid):
         sel = (body == b) & (vol > 0.0) & touching
         if not sel.any():
             continue
         for n, row in zip(normals, rows):
             depth = float((row[0] + skin[sel] - x[sel] @ n).max())
+            if sphere[b] > 0.0:   # round 88: its exact sphere's (round_ground)
+                c = (m[body == b, None] * x[body == b]).sum(0) / m[body == b].sum()
+                depth = sphere_depth(c, sphere[b], n, row[0])
             if depth > 0.0:
                 x[body == b] += depth * n
                 moved = True

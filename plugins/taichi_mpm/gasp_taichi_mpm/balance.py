@@ -160,13 +160,13 @@ class Balance:
             self.clear_box(s)
 
     @ti.func
-    def add_contact(self, p, sup, jn, n, vc):
+    def add_contact(self, p, xp, sup, jn, n, vc):
         """Point p's normal impulse ``jn`` along ``n`` from support ``sup`` (its velocity ``vc`` there) into the
         support's row of ``c_jsums`` (``gasp_core.mpm.contact.JSUMS``), with the balance."""
         if ti.static(self.n_spin > 0):
             s = self.body[p] * self.n_sup + sup
             j = ti.cast(jn, ti.f64)
-            x = ti.cast(self.x[p], ti.f64)
+            x = ti.cast(xp, ti.f64)
             jv = j * ti.cast(n, ti.f64)
             mn = x.cross(jv)
             v = j * ti.cast(vc, ti.f64)

@@ -99,10 +99,11 @@ class Contact:
         kcs = self.p_contact[p]
         n = self.plane_n[q]
         jq = ti.cast(0.0, self.real)
-        depth = self.plane_row[q][0] + kcs[2] - n.dot(self.x[p])
-        if depth > 0.0:
-            jq = self.contact_impulse(p, self.plane_e[q], n.dot(self.v[p]), n, depth, kcs)
-        return jq
+        xq, vq = self.plane_point(p, n)   # round 88: a rigid sphere at its contact point (rigid_lift.py)
+        depth = self.plane_row[q][0] + kcs[2] - n.dot(xq)
+        if depth > 0.0 and (kcs[0] > 0.0 or not self.is_sphere(p)):   # a sphere: its points with mass
+            jq = self.contact_impulse(p, self.plane_e[q], n.dot(vq), n, depth, kcs, xq)
+        return jq, xq
 
     @ti.func
     def point_contact(self, p):
@@ -119,16 +120,16 @@ class Contact:
         sup = -1
         jbest = ti.cast(0.0, self.real)
         for q in ti.static(range(self.n_planes)):
-            jq = self.plane_contact(p, q)
+            jq, xq = self.plane_contact(p, q)
             if jq > 0.0:
                 mu = self.plane_row[q][1]
                 n = self.plane_n[q]
                 imp += jq * n
                 budget += mu * jq
-                self.add_twist(p, mu, jq, n, ti.Vector.zero(self.real, 3))
+                self.add_twist(p, xq, mu, jq, n, ti.Vector.zero(self.real, 3))
                 fn += (mu * jq) * n
                 sq = ti.cast(self.plane_row[q][2], ti.i32)
-                self.add_contact(p, sq, jq, n, fv)
+                self.add_contact(p, xq, sq, jq, n, fv)
                 if jq > jbest:
                     sup = sq
                     jbest = jq
@@ -139,15 +140,15 @@ class Contact:
                 phi, n, vc = self.collider_at(self.x[p], c, base, kcs[2])
                 depth = kcs[2] - phi
                 if depth > 0.0:
-                    jq = self.contact_impulse(p, 1.0, (self.v[p] - vc).dot(n), n, depth, kcs)
+                    jq = self.contact_impulse(p, 1.0, (self.v[p] - vc).dot(n), n, depth, kcs, self.x[p])
                     if jq > 0.0:
                         mu = self.ex_meta[c * COL_META + CM_FRICTION]
                         imp += jq * n
                         budget += mu * jq
-                        self.add_twist(p, mu, jq, n, vc)
+                        self.add_twist(p, self.x[p], mu, jq, n, vc)
                         fn += (mu * jq) * n
                         fv += (mu * jq) * vc
-                        self.add_contact(p, 1 + c, jq, n, vc)
+                        self.add_contact(p, self.x[p], 1 + c, jq, n, vc)
                         if jq > jbest:
                             sup = 1 + c
                             jbest = jq

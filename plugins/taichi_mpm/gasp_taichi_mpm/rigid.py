@@ -64,7 +64,7 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
         self.rb_c0 = ti.Vector.field(3, ti.f64, shape=max(nb, 1))   # the centre where the contact began
         self.rb_steps = ti.field(ti.i32, shape=max(nb, 1))   # the contact's substeps so far
         # the points of the largest flat face (gasp_core.mpm.rigid.face_counts), those touching now and last
-        self.rb_nface = ti.field(self.real, shape=max(nb, 1))
+        self.rb_nface, self.rb_rad = ti.field(self.real, shape=max(nb, 1)), ti.field(ti.f64, shape=max(nb, 1))
         self.rb_count, self.rb_nlast = (ti.field(ti.i32, shape=max(nb, 1)) for _ in range(2))
         # the points in a plane at the pose the next P2G takes (rigid_depth)
         self.rb_ndepth = ti.field(ti.i32, shape=max(nb, 1))
@@ -117,21 +117,21 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
         for f, a in zip((self.rb_carry, self.rb_book), spin_shares(setup)):
             f.from_numpy(np.resize(np.asarray(a, np.float64), f.shape[0]))
 
-    def set_restitution(self, body_e, plane_e, v_rest: float, n_face) -> None:
-        """The rigid bodies' restitution (``gasp_core.mpm.restitution``): ``body_e`` per body (shape
-        (n_bodies,), -1 for a body without it), ``plane_e`` per contact plane (shape (n_planes,)), ``v_rest`` (m/s)
-        the rebound speed below which a contact is inelastic, ``n_face`` per body
-        (``gasp_core.mpm.rigid.face_counts``)."""
+    def set_restitution(self, body_e, plane_e, v_rest: float, n_face, sphere) -> None:
+        """The rigid bodies' restitution (``gasp_core.mpm.restitution``): ``body_e`` per body (shape (n_bodies,), -1 for a
+        body without it), ``plane_e`` per contact plane (shape (n_planes,)), ``v_rest`` (m/s) the rebound speed below which a
+        contact is inelastic, ``n_face`` per body (``gasp_core.mpm.rigid.face_counts``), ``sphere`` per body its exact sphere's radius, m (0: none; round 88, ``gasp_core.mpm.round_ground.ground_radius``)."""
         if self.any_rigid:
             self.rb_e.from_numpy(np.asarray(body_e, self._np_real))
             self.rb_nface.from_numpy(np.asarray(n_face, self._np_real))
+            self.rb_rad.from_numpy(np.asarray(sphere, np.float64))
             if self.n_planes:
                 self.plane_e.from_numpy(np.asarray(plane_e, self._np_real))
             self.v_rest[None] = float(v_rest)
             self.lift_rule[None] = lift_off_rule()
 
     @ti.func
-    def add_twist(self, p, mu, jq, n, vc):
+    def add_twist(self, p, xp, mu, jq, n, vc):
         """Point p's normal impulse ``jq`` (kg m/s) from a support of friction ``mu`` and normal ``n`` moving at ``vc``
         (m/s), for Coulomb's friction on its body as one (a rigid body with restitution): its budget ``mu jq`` times
         its lever about the axis along ``n`` through the body's centre into ``rb_twist`` (the most angular momentum
@@ -140,7 +140,7 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
         if ti.static(self.any_rigid):
             b = self.body[p]
             if self.rb_e[b] >= 0.0:
-                x = ti.cast(self.x[p], ti.f64)
+                x = ti.cast(xp, ti.f64)
                 r = x - self.rb_c[b]
                 nd = ti.cast(n, ti.f64)
                 j = ti.cast(jq, ti.f64)
@@ -165,7 +165,7 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
         return out
 
     @ti.func
-    def contact_impulse(self, p, e_sup, vn, n, depth, kcs):
+    def contact_impulse(self, p, e_sup, vn, n, depth, kcs, x):
         """Point p's normal impulse (kg m/s) at ``depth`` (m, > 0) in a support of restitution ``e_sup``, ``vn`` its
         normal velocity relative to it (m/s), ``n`` its normal, ``kcs = (k, c, skin)``: ``max(0, dt (k depth - c
         vn))``; a rigid body's point with restitution (``gasp_core.mpm.restitution``) while its body bounces:
@@ -193,7 +193,7 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
                 # = 1 (explicit damping is stable below 2); sqrt(N / n_t) more (the body's ratio exactly) overshot
                 # when more points touched than in the last substep (a ladder ball gained 633 % of its fall energy)
                 c = 2.0 * self.rest_zeta * dt * kcs[0] * sk
-                jq = ti.max(jk - dt * c * self.rolling_vn(p, b, vn, n), 0.0)
+                jq = ti.max(jk - dt * c * self.rolling_vn(x, b, vn, n), 0.0)
                 ti.atomic_add(self.rb_count[b], 1)
                 self.rb_touch[b] = 1
                 ti.atomic_add(self.rb_jn[b], jk * n)
@@ -210,13 +210,13 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
         return jq
 
     @ti.func
-    def rolling_vn(self, p, b, vn, n):
+    def rolling_vn(self, x, b, vn, n):
         """The normal velocity (m/s) the settling damping of point p of rigid body b takes: its own ``vn`` on a
         face, the patch centre's on a rounded body (``rb_flat`` 0: a ball's points entering its rolling cap move down
         at ``omega s``, and damping each on its own braked the rolling by 2.8 %; issue 67), blended by the last
         substep's flatness (``gasp_core.mpm.rigid_friction.contact_flatness``)."""
         f = self.rb_flat[b]
-        d = ti.cast(n, ti.f64).dot(self.rb_w[b].cross(self.rb_xf[b] - ti.cast(self.x[p], ti.f64)))
+        d = ti.cast(n, ti.f64).dot(self.rb_w[b].cross(self.rb_xf[b] - ti.cast(x, ti.f64)))
         return vn + ti.cast((1.0 - f) * d, self.real)
 
     def _contact_fields(self) -> dict:

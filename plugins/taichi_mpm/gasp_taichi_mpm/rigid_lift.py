@@ -21,16 +21,40 @@ class RigidLift:
     """The two kernels of the resting bodies' non-penetration."""
 
     @ti.func
+    def is_sphere(self, p) -> bool:
+        """Whether point p belongs to a rigid sphere met on its exact shape (``rb_rad`` > 0, round 88)."""
+        out = False
+        if ti.static(self.any_rigid):
+            out = self.rb_rad[self.body[p]] > 0.0
+        return out
+
+    @ti.func
+    def plane_point(self, p, n):
+        """Where point p meets a plane of normal ``n``, and its velocity there: a rigid sphere's points (round 88,
+        ``gasp_core.mpm.round_ground``) at its exact contact point ``c - R n``, moving at ``v + w x (c - R n - x)``;
+        every other point at itself (warp_mpm's ``contact.build_plane_point``)."""
+        x = self.x[p]
+        v = self.v[p]
+        if self.is_sphere(p):
+            b = self.body[p]
+            xq = self.rb_c[b] - self.rb_rad[b] * ti.cast(n, ti.f64)
+            v += ti.cast(self.rb_w[b].cross(xq - ti.cast(x, ti.f64)), self.real)
+            x = ti.cast(xq, self.real)
+        return x, v
+
+    @ti.func
     def depth_point(self, p, t, sliced: ti.template()):
         """Point p's penetration into each plane: the deepest (an atomic max: the same in any order), the count,
         and the weighted sums into ``rb_dsum`` (serial) or slice t's row of ``rb_dsums`` (``sliced``)."""
         b = self.body[p]
         kcs = self.p_contact[p]
         if self.rb_rigid[b] != 0 and kcs[0] > 0.0:
-            x = ti.cast(self.x[p], ti.f64)
             inside = 0
             for q in range(self.n_planes):
                 n = ti.cast(self.plane_n[q], ti.f64)
+                x = ti.cast(self.x[p], ti.f64)
+                if self.rb_rad[b] > 0.0:   # round 88: a rigid sphere at its contact point (plane_point)
+                    x = self.rb_c[b] - self.rb_rad[b] * n
                 d = ti.cast(self.plane_row[q][0], ti.f64) + ti.cast(kcs[2], ti.f64) - n.dot(x)
                 if d > 0.0:
                     k = b * self.n_planes + q

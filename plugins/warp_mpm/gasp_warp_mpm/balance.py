@@ -41,7 +41,7 @@ import warp as wp
 from gasp_core.mpm.contact import REACH as REACH_SPACINGS, TORQUE_REACH
 from gasp_core.mpm.contact_mark import MARK_OCTAVES_BELOW, MARK_Q_MAX, MARK_ROW_BITS, MARK_ROW_MASK, MARK_STEPS
 
-from .contact import build_collider_contact, build_contact, build_contact_impulse
+from .contact import build_collider_contact, build_contact, build_contact_impulse, build_plane_point
 from .forces import build_extras_struct
 from .precision import MODULE_OPTIONS, build_types
 from .take_back import PLANE_RULE, unresolved_fraction
@@ -147,7 +147,7 @@ def build_moments(Ft):
     """``(contact_moments, contact_shift)`` of scalar type ``Ft``."""
     vec3, vec4, mat33 = build_types(Ft)
     collider_contact = build_collider_contact(Ft)[0]
-    contact_impulse = build_contact_impulse(Ft)
+    contact_impulse, plane_point = build_contact_impulse(Ft), build_plane_point(Ft)
     Extras = build_extras_struct(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
@@ -177,13 +177,14 @@ def build_moments(Ft):
         kcs = p_contact[p]
         for q in range(planes.shape[0]):   # support 0: the grounds; a wall's face: its own (planes[q][2])
             jq = Ft(0.0)
-            depth = planes[q][0] + kcs[2] - wp.dot(plane_n[q], xp)   # plane_contact, with the rigid bodies' law
+            xq, vq = plane_point(ex, b, xp, vp, plane_n[q])   # round 88: a rigid sphere at its contact point
+            depth = planes[q][0] + kcs[2] - wp.dot(plane_n[q], xq)   # plane_contact, with the rigid bodies' law
             if depth > Ft(0.0):
-                jq = contact_impulse(ex, b, ex.plane_e[q], wp.dot(plane_n[q], vp), 0, plane_n[q], depth, kcs, dt, xp)
+                jq = contact_impulse(ex, b, ex.plane_e[q], wp.dot(plane_n[q], vq), 0, plane_n[q], depth, kcs, dt, xq)
             if jq > Ft(0.0):
                 nq = plane_n[q]
-                add_contact(jsums, b * n_sup + int(planes[q][2]), f64(jq), r, v64(f64(nq[0]), f64(nq[1]), f64(nq[2])),
-                            v64(f64(0.0)), m)
+                add_contact(jsums, b * n_sup + int(planes[q][2]), f64(jq), v64(f64(xq[0]), f64(xq[1]), f64(xq[2])),
+                            v64(f64(nq[0]), f64(nq[1]), f64(nq[2])), v64(f64(0.0)), m)
         if colc != 0:   # support 1 + cc: collider cc
             base = ex.step[0] * ex.width
             for cc in range(ex.n_col):

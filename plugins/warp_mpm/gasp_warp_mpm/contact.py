@@ -116,6 +116,32 @@ def build_contact_impulse(Ft):
 
 
 @functools.cache
+def build_plane_point(Ft):
+    """``plane_point(ex, b, x, v, n) -> (x*, v*)``, a Warp function of the scalar type ``Ft``: where a point of body
+    ``b`` at ``x`` with velocity ``v`` meets a plane of normal ``n``. A rigid sphere (``ex.rb_rad[b]`` > 0, round 88,
+    ``gasp_core.mpm.round_ground``) meets it at its exact contact point ``x* = c - R n`` (``c = ex.rb_cx[b]``), moving
+    at ``v + w x (x* - x)`` (``w = ex.rb_wx[b]``); every other point at itself. taichi_mpm's ``Rigid.plane_point``."""
+    vec3 = build_types(Ft)[0]
+    Extras = build_extras_struct(Ft)
+
+    @wp.func
+    def plane_point(ex: Extras, b: int, x: vec3, v: vec3, n: vec3):
+        xq = x
+        vq = v
+        R = ex.rb_rad[b]
+        if R > wp.float64(0.0):
+            nd = wp.vec3d(wp.float64(n[0]), wp.float64(n[1]), wp.float64(n[2]))
+            c = ex.rb_cx[b] - R * nd
+            xq = vec3(Ft(c[0]), Ft(c[1]), Ft(c[2]))
+            r = c - wp.vec3d(wp.float64(x[0]), wp.float64(x[1]), wp.float64(x[2]))
+            dv = wp.cross(ex.rb_wx[b], r)
+            vq = v + vec3(Ft(dv[0]), Ft(dv[1]), Ft(dv[2]))
+        return xq, vq
+
+    return plane_point
+
+
+@functools.cache
 def build_add_twist(Ft):
     """``add_twist(ex, b, x, mu, jq, n, vc)``, a Warp function of the scalar type ``Ft``: a rigid body's point at ``x``
     with the normal impulse ``jq`` from a support of friction ``mu``, normal ``n`` and velocity ``vc`` adds its budget
@@ -173,6 +199,7 @@ def build_collider_contact(Ft):
     Extras = build_extras_struct(Ft)
     collider_at = build_collider_at(Ft)
     contact_impulse, add_twist = build_contact_impulse(Ft), build_add_twist(Ft)
+    plane_point = build_plane_point(Ft)
 
     @wp.func
     def collider_contact(ex: Extras, base: int, cc: int, x: vec3, v: vec3, kcs: vec3, dt: Ft, b: int, mark: int):
@@ -194,15 +221,16 @@ def build_collider_contact(Ft):
         jbest = Ft(0.0)
         for q in range(planes.shape[0]):   # the grounds (support 0) and the walls' faces (each its own)
             jq = Ft(0.0)
-            depth = planes[q][0] + kcs[2] - wp.dot(plane_n[q], x)   # build_contact's plane_contact, with the law
-            if depth > Ft(0.0):
-                jq = contact_impulse(ex, b, ex.plane_e[q], wp.dot(plane_n[q], v), 1, plane_n[q], depth, kcs, dt,
-                                     x)
+            xq, vq = plane_point(ex, b, x, v, plane_n[q])   # round 88: a rigid sphere at its contact point
+            depth = planes[q][0] + kcs[2] - wp.dot(plane_n[q], xq)   # build_contact's plane_contact, with the law
+            if depth > Ft(0.0) and (kcs[0] > Ft(0.0) or ex.rb_rad[b] <= wp.float64(0.0)):   # a sphere: its massed
+                jq = contact_impulse(ex, b, ex.plane_e[q], wp.dot(plane_n[q], vq), 1, plane_n[q], depth, kcs, dt,
+                                     xq)
             if jq > Ft(0.0):
                 mu = planes[q][1]
                 imp = imp + jq * plane_n[q]
                 bud = bud + mu * jq
-                add_twist(ex, b, x, mu, jq, plane_n[q], vec3(Ft(0.0)))
+                add_twist(ex, b, xq, mu, jq, plane_n[q], vec3(Ft(0.0)))
                 fn = fn + (mu * jq) * plane_n[q]
                 if jq > jbest:
                     sup = int(planes[q][2])

@@ -65,6 +65,7 @@ def build_extras_struct(Ft):
         rb_flat: wp.array(dtype=wp.float64)
         rb_xf: wp.array(dtype=wp.types.vector(3, wp.float64))
         rb_wx: wp.array(dtype=wp.types.vector(3, wp.float64))
+        rb_rad: wp.array(dtype=wp.float64)   # round 88: a rigid sphere's radius, m (0: none; contact.build_plane_point)
         plane_e: wp.array(dtype=Ft)
         v_rest: Ft   # m/s: a rebound below it is none
     return Extras

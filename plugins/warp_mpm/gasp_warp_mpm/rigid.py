@@ -144,17 +144,20 @@ def build_rigid_lift(Ft):
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def rigid_depth(x: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), rigid: wp.array(dtype=wp.int32),
                     p_contact: wp.array(dtype=vec3), planes: wp.array(dtype=vec3), plane_n: wp.array(dtype=vec3),
-                    dmax: wp.array(dtype=wp.float64), dsum: wp.array(dtype=wp.vec4d), ndepth: wp.array(dtype=wp.int32)):
+                    dmax: wp.array(dtype=wp.float64), dsum: wp.array(dtype=wp.vec4d), ndepth: wp.array(dtype=wp.int32),
+                    centre: wp.array(dtype=vec3d), rad: wp.array(dtype=wp.float64)):
         p = wp.tid()
         b = body[p]
         kcs = p_contact[p]
         if rigid[b] == 0 or kcs[0] <= Ft(0.0):
             return
         n_pl = planes.shape[0]
-        xp = vec3d(wp.float64(x[p][0]), wp.float64(x[p][1]), wp.float64(x[p][2]))
         inside = int(0)
         for q in range(n_pl):
             nq = vec3d(wp.float64(plane_n[q][0]), wp.float64(plane_n[q][1]), wp.float64(plane_n[q][2]))
+            xp = vec3d(wp.float64(x[p][0]), wp.float64(x[p][1]), wp.float64(x[p][2]))
+            if rad[b] > wp.float64(0.0):   # round 88: a rigid sphere at its contact point (contact.plane_point)
+                xp = centre[b] - rad[b] * nq
             d = wp.float64(planes[q][0]) + wp.float64(kcs[2]) - wp.dot(nq, xp)
             if d > wp.float64(0.0):
                 wp.atomic_max(dmax, b * n_pl + q, d)
@@ -356,7 +359,7 @@ class RigidBodies:
             self.rb_dsum = wp.zeros(nb * n_pl, dtype=wp.vec4d, device=d)
             out += [wp.launch(depth_k, dim=self.n_material, device=d, record_cmd=True, inputs=[
                         self.x, self.body, self.rb_rigid, self.p_contact, self.planes, self.plane_n, self.rb_dmax,
-                        self.rb_dsum, ex.rb_ndepth]),
+                        self.rb_dsum, ex.rb_ndepth, self.rb_c, ex.rb_rad]),
                     wp.launch(lift_k, dim=nb, device=d, record_cmd=True, inputs=[
                         self.rb_rigid, self.rb_M, self.rb_I0, self.rb_c, self.rb_R, self.rb_V, self.rb_w, dxa, nb,
                         self.planes, self.plane_n, self.rb_dmax, self.rb_dsum, ex.rb_e, ex.rb_vin, ex.plane_e,

@@ -16,7 +16,7 @@ import functools
 import warp as wp
 
 from ..balance import FR_COLUMNS, body_fix, f64, v64
-from ..contact import build_collider_contact, build_contact_impulse
+from ..contact import build_collider_contact, build_contact_impulse, build_plane_point
 from ..forces import build_extras_struct
 from ..grid import build_node_fix
 from ..precision import MODULE_OPTIONS, build_types
@@ -66,7 +66,7 @@ def build_row_sums(Ft):
     together."""
     vec3, vec4, mat33 = build_types(Ft)
     collider_contact = build_collider_contact(Ft)[0]
-    contact_impulse = build_contact_impulse(Ft)
+    contact_impulse, plane_point = build_contact_impulse(Ft), build_plane_point(Ft)
     Extras = build_extras_struct(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
@@ -105,14 +105,15 @@ def build_row_sums(Ft):
             kcs = p_contact[p]
             for q in range(planes.shape[0]):
                 jq = Ft(0.0)
-                depth = planes[q][0] + kcs[2] - wp.dot(plane_n[q], xp)
+                xq, vq = plane_point(ex, b, xp, vp, plane_n[q])   # round 88: a rigid sphere at its contact point
+                depth = planes[q][0] + kcs[2] - wp.dot(plane_n[q], xq)
                 if depth > Ft(0.0):
-                    jq = contact_impulse(ex, b, ex.plane_e[q], wp.dot(plane_n[q], vp), 0, plane_n[q], depth, kcs, dt,
-                                         xp)
+                    jq = contact_impulse(ex, b, ex.plane_e[q], wp.dot(plane_n[q], vq), 0, plane_n[q], depth, kcs, dt,
+                                         xq)
                 if jq > Ft(0.0):
                     nq = plane_n[q]
-                    acc_contact(pjs, blk, b * n_sup + int(planes[q][2]), f64(jq), r,
-                                v64(f64(nq[0]), f64(nq[1]), f64(nq[2])), v64(f64(0.0)), m)
+                    acc_contact(pjs, blk, b * n_sup + int(planes[q][2]), f64(jq), v64(f64(xq[0]), f64(xq[1]),
+                                f64(xq[2])), v64(f64(nq[0]), f64(nq[1]), f64(nq[2])), v64(f64(0.0)), m)
             if colc != 0:
                 base = ex.step[0] * ex.width
                 for cc in range(ex.n_col):
