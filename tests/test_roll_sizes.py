@@ -1,74 +1,73 @@
-"""Round 87 (issue 67 item 2, ``docs/rigid.md`` "Round 87: the rolling ball's neighbours"): ``tests/test_rolling.py``'s
-rigid ball on its 20 degree slope at other radii and grids than the test's own (R 0.1 m at n_grid 24), judged by that
-test's two-sided check (``test_rolling.check``: rolling at mu 0.5, ``(5/7) g sin theta`` and ``omega R / v`` within 5 %;
-slipping at mu 0.05, Coulomb's ``g (sin - mu cos)`` and the spin-up ``mu g cos t / k`` within 5 %), built as the test
-builds it (``benchmarks/studies/roll_sizes87.py``: its Gaussians a Fibonacci shell whose count scales with its area,
-3,217 at 0.1 m, over a lattice fill at ``dx / 2``).
+"""Issue 67 item 2 on a family: ``tests/test_rolling.py``'s rigid ball on its 20 degree slope at other radii, grids and
+samplings of its Gaussians than the test's own (R 0.1 m at n_grid 24, a Fibonacci shell of 3,217), judged by that
+test's two-sided check (rolling at mu 0.5: ``g sin / (1 + k)`` and ``omega R / v`` within 5 %; slipping at mu 0.05:
+Coulomb's ``g (sin - mu cos)`` and the spin-up ``mu g cos t / k`` within 5 %), ``k`` each ball's own
+(``benchmarks/studies/roll_family88.py``: radii 0.05 and 0.1 m, n_grid 24, 32 and 48, the test's shell scaled with the
+area, a sixteenth of it, a scan-like random shell with radial jitter, and a fill alone).
 
-Measured (warp_mpm; taichi_mpm the same to the digits shown where run, R 0.05 at n_grid 24 and 48): the slip's
-translation is Coulomb's on every case (within 0.02 %), but its spin-up falls short on five of the ten neighbours,
-by up to 43.5 %, and the 5 cm ball's roll at n_grid 48 is 6.5 % slow. Those are strict xfails (``MISSES``) with their
-figures. The spin-up follows how densely the Gaussians sample the ball, not the grid alone. On the flat ground, a ball
-thrown sliding at 0.5 m/s at mu 0.05 spins up at 0.21 of ``mu g / k`` (R 0.05 m, n_grid 48, 804 Gaussians) and at
-0.97 with 3,217. The 10 cm ball at n_grid 24 spins up at 0.999 with 3,217 and at 0.625 with 200. The cause (round 87,
-found, not fixed): the body rests on its Gaussians, so a ball rolls as the polyhedron they sample, each vertex that
-comes down an inelastic impact (rolling resistance ``c_rr`` 0.023 with 804 Gaussians on the 5 cm ball, 0.0023 with
-3,217); the next class is the ground contact on the round body's exact shape (``roll_contact``'s sphere).
-
-The checks are ``test_rolling``'s, each shown failing on engines broken on purpose there
-(``test_rolling.test_the_checks_catch_broken_engines``); here the family fails the five neighbours above.
+Round 87 found five of ten neighbours missing (``docs/rigid.md`` "Round 87"): a rigid body rested on its Gaussians, so
+a ball rolled as the polyhedron they sample (the 5 cm ball on n_grid 48 spun up 43.5 % short slipping and rolled 6.49 %
+slow). Since round 88 a rigid sphere meets the planes on its exact sphere (``gasp_core.mpm.round_ground``): the family
+meets the closed forms within 0.15 % on both engines (``docs/rigid.md`` "Round 88"). The checks' catches are
+``test_rolling``'s (``test_the_checks_catch_broken_engines``: a rest brake, a friction that never sticks, one that
+ignores ``mu``); here :func:`test_the_family_catches_a_ball_on_its_points` runs the engine before round 88.
 """
 from __future__ import annotations
 
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 from slopes import ENGINES
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks" / "studies"))
-import roll_sizes87 as RS  # noqa: E402
-
-RADII = (0.05, 0.1)
-GRIDS = (24, 32, 48)
-#: Measured misses (round 87, warp_mpm; both engines where run): (R, n_grid, mu) -> the check's figure.
-MISSES = {
-    (0.05, 24, 0.05): "spin-up omega R at 0.3 s 0.3083 m/s against 0.3457 (-10.82 %)",
-    (0.05, 32, 0.05): "spin-up omega R at 0.3 s 0.2520 m/s against 0.3457 (-27.10 %)",
-    (0.05, 48, 0.5): "a = 2.2410 m/s^2 against 2.3966 (-6.49 %)",
-    (0.05, 48, 0.05): "spin-up omega R at 0.3 s 0.1953 m/s against 0.3457 (-43.50 %)",
-    (0.1, 48, 0.05): "spin-up omega R at 0.3 s 0.3060 m/s against 0.3457 (-11.49 %)",
-}
-
-
-def _cases():
-    for radius in RADII:
-        for n_grid in GRIDS:
-            if (radius, n_grid) == (0.1, 24):
-                continue   # test_rolling's own case
-            for mu in RS.MUS:
-                why = MISSES.get((radius, n_grid, mu))
-                marks = [pytest.mark.xfail(strict=True, reason=why)] if why else []
-                yield pytest.param(radius, n_grid, mu, marks=marks, id=f"R{radius}-n{n_grid}-mu{mu}")
+import roll_family88 as RF  # noqa: E402
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("engine", ENGINES)
-@pytest.mark.parametrize("radius,n_grid,mu", list(_cases()))
-def test_a_rigid_ball_rolls_or_slips_at_other_sizes_and_grids(engine, radius, n_grid, mu):
+@pytest.mark.parametrize("mu", RF.MUS)
+@pytest.mark.parametrize("radius,n_grid,sampling", RF.family(), ids=lambda v: str(v))
+def test_a_rigid_ball_rolls_or_slips_across_the_family(engine, radius, n_grid, sampling, mu):
     pytest.importorskip(f"gasp_{engine}")
-    r = RS.row(engine, radius, n_grid, mu)
-    assert r["problem"] is None, f"{engine}, R {radius}, n_grid {n_grid}: {r['problem']}"
+    r = RF.row(engine, radius, n_grid, sampling, mu)
+    assert r["problem"] is None, f"{engine}, R {radius}, n_grid {n_grid}, {sampling}: {r['problem']}"
 
 
-@pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason=(
-    "round 87: the 5 cm ball on n_grid 48 (R 4 dx, 804 Gaussians) rolls at 2.2410 m/s^2 against 5/7 g sin's "
-    "2.3966 (-6.49 %) and slipping spins up to 0.1953 m/s against 0.3457 (-43.50 %); both engines"))
 @pytest.mark.parametrize("engine", ENGINES)
 def test_a_5_cm_rigid_ball_rolls_and_slips_as_the_10_cm_one(engine):
-    """The worst neighbour of ``docs/must_shows.md``'s rolling row, as one test: rolling at mu 0.5 and slipping at
-    mu 0.05 both within ``test_rolling``'s check."""
+    """The worst neighbour of round 87 (``docs/must_shows.md``'s rolling row): the 5 cm ball on n_grid 48 (R 4 dx, 804
+    Gaussians), rolling at mu 0.5 and slipping at mu 0.05, both within ``test_rolling``'s check."""
     pytest.importorskip(f"gasp_{engine}")
-    problems = [p for mu in RS.MUS if (p := RS.row(engine, 0.05, 48, mu)["problem"])]
+    problems = [p for mu in RF.MUS if (p := RF.row(engine, 0.05, 48, "fibonacci", mu)["problem"])]
     assert not problems, problems
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_the_family_catches_a_ball_on_its_points(engine, monkeypatch):
+    """The engine before round 88 (``ROUND_GROUND`` 0: the ball rests on its Gaussians, a polyhedron) misses the
+    worst neighbour's spin-up (round 87: -43.5 %), where the real engine meets it
+    (:func:`test_a_5_cm_rigid_ball_rolls_and_slips_as_the_10_cm_one`)."""
+    pytest.importorskip(f"gasp_{engine}")
+    import gasp_core.mpm.round_ground as rg
+    monkeypatch.setattr(rg, "ROUND_GROUND", 0)
+    r = RF.row(engine, 0.05, 48, "fibonacci", RF.rl.SLIP_MU)
+    assert r["problem"] is not None and "omega R" in r["problem"], r
+    assert r["wR_err"] < -0.2, r
+
+
+def test_the_family_ball_is_built_as_described():
+    """The family's balls: each sampling's Gaussian count, the shell's inertia share 0.4, the scan's jitter within a
+    quarter spacing, the fill alone's points inside the ball."""
+    for sampling, n in (("fibonacci", 804), ("sparse", 50), ("scan", 804), ("fill", 0)):
+        x, p_vol, n_render = RF.ball(0.05, 48, sampling)
+        assert n_render == n and len(x) == len(p_vol) and (p_vol > 0).all()
+        c = (p_vol[:, None] * x).sum(0) / p_vol.sum()
+        d = np.linalg.norm(x[:n_render] - c, axis=1)
+        if sampling == "fill":
+            assert np.linalg.norm(x - c, axis=1).max() < 0.05
+        else:
+            assert abs(RF.inertia_share(x, p_vol, 0.05) - 0.4) < 1e-3
+            spread = np.sqrt(4 * np.pi / n) * 0.05 / 4 + 1e-3
+            assert np.abs(d - 0.05).max() <= (spread if sampling == "scan" else 1e-3)

@@ -207,9 +207,13 @@ def _rest_brake(c: np.ndarray, v_rest: float = 0.1) -> np.ndarray:
 
 def _every_patch_a_face(monkeypatch, engine):
     """The engine before the fix: every contact patch holds the friction's tipping moment as a face (taichi_mpm reads
-    the flatness bounds when it compiles; warp_mpm's are Warp constants of a cached module)."""
+    the flatness bounds when it compiles; warp_mpm's are Warp constants of a cached module), and the ball meets the
+    ground on its points, as it did then (round 88: on its exact sphere the patch is one point, which holds no
+    tipping moment, face or not; ``gasp_core.mpm.round_ground.ROUND_GROUND``)."""
     if engine == "taichi_mpm":
+        import gasp_core.mpm.round_ground as rg
         import gasp_taichi_mpm.rigid_friction as rf
+        monkeypatch.setattr(rg, "ROUND_GROUND", 0)
         monkeypatch.setattr(rf, "FLAT_FROM", -1.0e30)
         monkeypatch.setattr(rf, "FLAT_TO", -0.5e30)
         return True

@@ -39,6 +39,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from gasp_core.mpm.roll_contact import point_spacing, round_body   # noqa: F401 (round 88: moved there, re-exported)
+
 #: Round 66: True takes the rigid collider's contact by the soft points against the body's shape (module notes);
 #: False: round 63's node band (a ball rolling on jelly lost its spin in 0.03 s, ``docs/rigid.md`` "Round 65").
 POINT_CONTACT = False
@@ -87,34 +89,6 @@ PATCH = 0.0
 #: first in round 66: the nodes' masses read after the grid update had cleared them). 1: each field's node mass kept
 #: before the clear (``pc_m``).
 SOFT_SIDE = 1
-
-
-def round_body(X0: np.ndarray) -> bool:
-    """Whether a rigid body (points ``X0`` (N, 3) m about its centre, rest frame) takes the point contact with
-    :data:`POINT_CONTACT` on: no face along its frame's or principal axes (round 65's support table,
-    ``gasp_core.mpm.rigid_support``: the flatness at those 12 rows, the mean of two tangents, under 1/2 at every
-    one: a ball; a block, a slab, a plate have faces there and keep round 63's node band, which holds faces)."""
-    from gasp_core.mpm.rigid_support import flatness, support_table
-    X0 = np.asarray(X0, float)
-    dirs, h, curv, _ = support_table(X0, point_spacing(X0))
-    for i in range(len(dirs) - 12, len(dirs)):
-        d = dirs[i] / np.linalg.norm(dirs[i])
-        t1 = np.cross(d, [1.0, 0.0, 0.0] if abs(d[0]) < 0.9 else [0.0, 1.0, 0.0])
-        t1 /= np.linalg.norm(t1)
-        t2 = np.cross(d, t1)
-        c = curv[i]
-        K = np.array([[c[0], c[1], c[2]], [c[1], c[3], c[4]], [c[2], c[4], c[5]]])
-        f = 0.5 * (flatness(float(t1 @ K @ t1), float(h[i])) + flatness(float(t2 @ K @ t2), float(h[i])))
-        if f >= 0.5:
-            return False
-    return True
-
-
-def point_spacing(X: np.ndarray) -> float:
-    """The median nearest-neighbour distance of points ``X`` (N, 3) m."""
-    from scipy.spatial import cKDTree
-    d, _ = cKDTree(X).query(X, k=2)
-    return float(np.median(d[:, 1]))
 
 
 def body_sdf(X0: np.ndarray, dx: float) -> dict:

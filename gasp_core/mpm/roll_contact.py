@@ -296,3 +296,31 @@ def cylinder_patch(x: np.ndarray, m: np.ndarray, a: float, c: np.ndarray, e: np.
         q = u * t1 + v * t2
     phi, n = cylinder_at(d + q, e, R, h)
     return phi, n, q
+
+
+def round_body(X0: np.ndarray) -> bool:
+    """Whether a rigid body (points ``X0`` (N, 3) m about its centre, rest frame) takes the point contact with
+    :data:`POINT_CONTACT` on: no face along its frame's or principal axes (round 65's support table,
+    ``gasp_core.mpm.rigid_support``: the flatness at those 12 rows, the mean of two tangents, under 1/2 at every
+    one: a ball; a block, a slab, a plate have faces there and keep round 63's node band, which holds faces)."""
+    from gasp_core.mpm.rigid_support import flatness, support_table
+    X0 = np.asarray(X0, float)
+    dirs, h, curv, _ = support_table(X0, point_spacing(X0))
+    for i in range(len(dirs) - 12, len(dirs)):
+        d = dirs[i] / np.linalg.norm(dirs[i])
+        t1 = np.cross(d, [1.0, 0.0, 0.0] if abs(d[0]) < 0.9 else [0.0, 1.0, 0.0])
+        t1 /= np.linalg.norm(t1)
+        t2 = np.cross(d, t1)
+        c = curv[i]
+        K = np.array([[c[0], c[1], c[2]], [c[1], c[3], c[4]], [c[2], c[4], c[5]]])
+        f = 0.5 * (flatness(float(t1 @ K @ t1), float(h[i])) + flatness(float(t2 @ K @ t2), float(h[i])))
+        if f >= 0.5:
+            return False
+    return True
+
+
+def point_spacing(X: np.ndarray) -> float:
+    """The median nearest-neighbour distance of points ``X`` (N, 3) m."""
+    from scipy.spatial import cKDTree
+    d, _ = cKDTree(X).query(X, k=2)
+    return float(np.median(d[:, 1]))

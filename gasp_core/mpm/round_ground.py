@@ -17,17 +17,20 @@ rigid_contact`). All its points then take normal impulses in proportion to their
 (``Omega dt`` 1 on the body's whole mass) and whose moment about the mass centre is ``sum m_p (x_p - c) x n j / M =
 0``. The friction acts on the body as one at ``x*`` (each plugin's slide brake, which reads the budget's points).
 
-Which bodies: a rigid body whose points fill a sphere (``gasp_core.mpm.rigid_sdf.round_body`` and
+Which bodies: a rigid body whose points fill a sphere (``gasp_core.mpm.roll_contact.round_body`` and
 ``gasp_core.mpm.roll_contact.sphere_radius``: principal moments within 5 %, no point beyond the volume's radius by
 more than a spacing), with the option ``roll_contact`` on (the default), whose exact sphere it already is against
 soft bodies; the same radius, the declared volume's. Bodies with faces, cylinders and other round bodies keep their
 points. Sources: the contact of a sphere with a half-space (Johnson 1985, "Contact Mechanics", Ch. 4: its normal
-force through the centre); rigid-body engines collide a sphere as its primitive, not its mesh (Bullet's
-``btSphereShape``, MuJoCo's ``sphere`` geom, PhysX's ``PxSphereGeometry``).
+force through the centre); rigid-body engines collide a sphere as its primitive, not as a mesh of its samples (the
+sphere shapes of Bullet and PhysX, docs/rigid.md "Round 88").
 """
 from __future__ import annotations
 
 import numpy as np
+
+import gasp_core.mpm.roll_contact as roll
+from gasp_core.mpm.contact import rigid_bodies
 
 #: 1: a rigid sphere meets the planes on its exact sphere (this module); 0: the broken variant, round 87's contact on
 #: its points (a polyhedron: the catch of ``tests/test_roll_sizes.py``).
@@ -46,25 +49,38 @@ def ground_radius(setup) -> np.ndarray:
     Returns
     -------
     ndarray, shape (n_bodies,), float64
-        ``(3 V / 4 pi)^(1/3)`` of the body's declared volume ``V`` (``roll_contact.sphere_radius``) where the body is
-        rigid and its points fill a sphere, with :data:`ROUND_GROUND` and the option on; else 0.
+        Where the body is rigid and its points fill a sphere (``roll_contact.sphere_radius`` > 0), with
+        :data:`ROUND_GROUND` and the option on: the sphere its Gaussians lie on (the rows under ``n_render`` with
+        mass, but faint ones: the median distance from the mass centre of those within a point spacing of the
+        farthest; a lattice of Gaussians 10 cm across rests with its lowest within 0.035 dx of the ground, as on its
+        points before), or with none the declared volume's radius ``(3 V / 4 pi)^(1/3)`` (a fill alone: its surface
+        half a spacing out, as :func:`gasp_core.mpm.rigid.rigid_contact`'s skin put it); else 0.
     """
-    from gasp_core.mpm.rigid import body_frames, rigid_mask
-    import gasp_core.mpm.roll_contact as roll
-    from gasp_core.mpm.rigid_sdf import point_spacing, round_body
-    rigid = np.asarray(rigid_mask(setup.materials), bool)
+    rigid = np.asarray(rigid_bodies(setup.materials), bool)
     out = np.zeros(len(rigid))
     if not ROUND_GROUND or not roll.on(setup) or not rigid.any():
         return out
     body = np.asarray(setup.body_id)
     mass = np.broadcast_to(np.asarray(setup.p_mass, np.float64), body.shape)
     vol = np.broadcast_to(np.asarray(setup.p_vol, np.float64), body.shape)
-    X0 = body_frames(setup.x, mass, body, rigid)[1]
+    x = np.asarray(setup.x, np.float64)
+    faint = getattr(setup, "faint", None)   # gasp_core.mpm.rigid.touch_rows: a capture's floaters hold nothing up
+    surface = np.arange(len(body)) < int(getattr(setup, "n_render", 0) or 0)
+    if faint is not None:
+        surface &= ~np.asarray(faint, bool)
     for b in np.flatnonzero(rigid):
         sel = (body == b) & (mass > 0.0)
-        if sel.sum() < 8 or not round_body(X0[sel]):
+        if sel.sum() < 8:
             continue
-        out[b] = roll.sphere_radius(X0[sel], float(vol[sel].sum()), point_spacing(X0[sel]))
+        X0 = np.zeros_like(x)
+        X0[sel] = x[sel] - (mass[sel, None] * x[sel]).sum(0) / mass[sel].sum()
+        if not roll.round_body(X0[sel]):
+            continue
+        s = roll.point_spacing(X0[sel])
+        out[b] = roll.sphere_radius(X0[sel], float(vol[sel].sum()), s)
+        if out[b] > 0.0 and (sel & surface).any():   # its Gaussians are its surface: the sphere they lie on
+            d = np.linalg.norm(X0[sel & surface], axis=1)
+            out[b] = float(np.median(d[d >= d.max() - s]))
     return out
 
 

@@ -1,0 +1,96 @@
+"""Round 88 (``gasp_core.mpm.round_ground``): which rigid bodies meet the planes on their exact sphere, with what radius,
+and the per-point contact rows that give that sphere's force: their sum the body's stiffness, their moment about the
+mass centre zero, no skin; a body placed in the ground lifted by its sphere's depth."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import gasp_core.mpm.round_ground as rg
+from gasp_core.mpm.contact import contact_coefficients
+from gasp_core.mpm.rigid import RIGID_OMEGA_DT, face_counts, lift_setup, rigid_contact, step_view
+from gasp_core.seam.setup import Boundary, Material
+from gasp_core.testing.helpers import box_points, make_setup
+from gasp_core.testing.scenes_passive import fibonacci_sphere
+
+R, H, GROUND = 0.05, 0.00625, 0.05
+C = np.array([0.3, 0.3, GROUND + R])
+
+
+def _setup(x, p_vol, n_render=0, model="rigid", options=None):
+    s = make_setup(x, p_vol, Material("jelly", model=model, E=1.0e10, nu=0.3, rho=700.0), gravity=(0.0, 0.0, -9.81),
+                   lo=np.zeros(3), hi=np.full(3, 0.6), n_grid=48, frame_dt=1.0 / 60,
+                   boundaries=[Boundary("ground", height=GROUND, friction=0.5)])
+    s.n_render = n_render
+    if options:
+        s.options = {**(s.options or {}), **options}
+    return s
+
+
+def _fill(c=C, radius=R, axes=(1.0, 1.0, 1.0)):
+    x, _ = box_points(c - radius * np.asarray(axes), c + radius * np.asarray(axes), H)
+    x = x[np.linalg.norm((x - c) / np.asarray(axes), axis=1) <= radius - H / 2]
+    return x, np.full(len(x), 4.0 / 3.0 * math.pi * radius ** 3 * np.prod(axes) / len(x))
+
+
+def _shell_ball(n=804):
+    x, _ = _fill()
+    shell = C + R * fibonacci_sphere(n)
+    volume = 4.0 / 3.0 * math.pi * R ** 3   # the shell carries 0.4 of it, each row its share
+    return np.concatenate([shell, x]), np.r_[np.full(n, 0.4 * volume / n), np.full(len(x), 0.6 * volume / len(x))], n
+
+
+def test_the_radius_is_the_gaussians_sphere_or_the_volumes():
+    x, p_vol, n = _shell_ball()
+    assert rg.ground_radius(_setup(x, p_vol, n))[0] == pytest.approx(R, rel=1e-3)   # on its Gaussians
+    x, p_vol = _fill()
+    volume_radius = (3.0 * p_vol.sum() / (4.0 * math.pi)) ** (1.0 / 3.0)
+    assert rg.ground_radius(_setup(x, p_vol))[0] == pytest.approx(volume_radius)   # a fill alone: its volume's
+    # a lattice of Gaussians: a sphere within the layer its outer Gaussians span (here its bottom facet 0.0406 m from
+    # the centre, its farthest 0.0469: 0.0436), not half a spacing out as a fill alone
+    d = np.linalg.norm(x - (p_vol[:, None] * x).sum(0) / p_vol.sum(), axis=1)
+    radius = rg.ground_radius(_setup(x, p_vol, len(x)))[0]
+    assert C[2] - x[:, 2].min() < radius < d.max() < volume_radius
+
+
+@pytest.mark.parametrize("what", ["cube", "ellipsoid", "soft", "option off", "switch off"])
+def test_other_bodies_keep_their_points(what, monkeypatch):
+    x, p_vol, n = _shell_ball()
+    kw = {}
+    if what == "cube":
+        x, _ = box_points(C - R, C + R, H)
+        p_vol, n = np.full(len(x), H ** 3), 0
+    elif what == "ellipsoid":
+        x, p_vol = _fill(axes=(1.0, 1.0, 0.7))
+        n = 0
+    elif what == "soft":
+        kw["model"] = "elastic"
+    elif what == "option off":
+        kw["options"] = {"roll_contact": False}
+    else:
+        monkeypatch.setattr(rg, "ROUND_GROUND", 0)
+    assert rg.ground_radius(_setup(x, p_vol, n, **kw))[0] == 0.0
+
+
+def test_the_rows_give_the_spheres_force_through_its_centre():
+    x, p_vol, n = _shell_ball()
+    s = _setup(x, p_vol, n)
+    dt = 1.0e-4
+    rows = rigid_contact(s, dt, contact_coefficients(step_view(s)))
+    m = np.asarray(s.p_mass, np.float64)
+    k = rows[:, 0]
+    assert k.sum() == pytest.approx((RIGID_OMEGA_DT / dt) ** 2 * m.sum())   # Omega dt 1 on the whole body
+    c = (m[:, None] * x).sum(0) / m.sum()
+    lever = (k[:, None] * (x - c)).sum(0) / k.sum()   # equal depths: the impulses' centre is the mass centre
+    assert np.abs(lever).max() < 1e-12
+    assert (rows[:, 2] == 0.0).all() and face_counts(s)[0] == len(x)
+
+
+def test_a_sphere_in_the_ground_is_lifted_by_its_spheres_depth():
+    x, p_vol, n = _shell_ball()
+    s = _setup(x - [0.0, 0.0, 0.01], p_vol, n)   # 1 cm into the ground
+    lifted = lift_setup(s)
+    assert np.asarray(lifted.x)[:, 2].mean() - np.asarray(s.x)[:, 2].mean() == pytest.approx(0.01, abs=1e-6)
+    assert rg.sphere_depth(C - [0.0, 0.0, 0.01], R, [0.0, 0.0, 1.0], GROUND) == pytest.approx(0.01)
