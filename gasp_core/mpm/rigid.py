@@ -113,12 +113,9 @@ def face_counts(setup) -> np.ndarray:
     out = np.ones(len(setup.materials))
     body, vol = np.asarray(setup.body_id), np.asarray(setup.p_vol, np.float64)
     touching = touch_rows(setup)
-    sphere = ground_radius(setup)
     for b in np.flatnonzero(rigid_mask(setup.materials)):
         sel = (body == b) & (vol > 0.0)
-        if sphere[b] > 0.0:   # round 88: all its points with mass take the contact (round_ground)
-            out[b] = max(int(np.sum((body == b) & (np.asarray(setup.p_mass, np.float64) > 0.0))), 1)
-        elif sel.any():
+        if sel.any():
             out[b] = max(face_points(np.asarray(setup.x)[sel & touching], float(np.median(np.cbrt(vol[sel])))), 1)
     return out
 
@@ -181,14 +178,8 @@ def rigid_contact(setup, dt: float, coeffs: np.ndarray) -> np.ndarray:
     m, vol = np.asarray(setup.p_mass, np.float64), np.asarray(setup.p_vol, np.float64)
     surface = np.arange(len(vol)) < int(getattr(setup, "n_render", 0) or 0)   # the scene's own Gaussians
     touching = touch_rows(setup)
-    sphere = ground_radius(setup)   # round 88: a sphere meets the planes on its exact sphere
     for b in np.flatnonzero(rigid_mask(setup.materials)):
         sel = (body == b) & (vol > 0.0)
-        if sphere[b] > 0.0:   # every point its mass's share of the body's stiffness, no skin (round_ground)
-            rows = body == b
-            kp = (RIGID_OMEGA_DT / dt) ** 2 * m[rows]
-            out[rows] = np.column_stack([kp, 2.0 * RIGID_DAMPING * np.sqrt(kp * m[rows]), np.zeros(rows.sum())])
-            continue
         if not sel.any():
             continue
         h = float(np.median(np.cbrt(vol[sel])))

@@ -96,13 +96,12 @@ class Contact:
     def plane_contact(self, p, q: ti.template()):
         """``j_n`` of point p (kg m/s, along the plane's normal ``plane_n[q]``) from plane q (``plane_n[q] . x =
         plane_row[q][0]``, ``gasp_core.mpm.contact.contact_planes``), ``p_contact[p] = (k, c, skin)``."""
-        kcs = self.p_contact[p]
         n = self.plane_n[q]
         jq = ti.cast(0.0, self.real)
-        xq, vq = self.plane_point(p, n)   # round 88: a rigid sphere at its contact point (rigid_lift.py)
+        xq, vq, kcs, own = self.plane_point(p, n)   # round 88: a rigid sphere at its contact point (rigid_lift.py)
         depth = self.plane_row[q][0] + kcs[2] - n.dot(xq)
-        if depth > 0.0 and (kcs[0] > 0.0 or not self.is_sphere(p)):   # a sphere: its points with mass
-            jq = self.contact_impulse(p, self.plane_e[q], n.dot(vq), n, depth, kcs, xq)
+        if depth > 0.0 and (kcs[0] > 0.0 or own == 0):   # a sphere: its points with mass
+            jq = self.contact_impulse(p, self.plane_e[q], n.dot(vq), n, depth, kcs, xq, own)
         return jq, xq
 
     @ti.func
@@ -140,7 +139,7 @@ class Contact:
                 phi, n, vc = self.collider_at(self.x[p], c, base, kcs[2])
                 depth = kcs[2] - phi
                 if depth > 0.0:
-                    jq = self.contact_impulse(p, 1.0, (self.v[p] - vc).dot(n), n, depth, kcs, self.x[p])
+                    jq = self.contact_impulse(p, 1.0, (self.v[p] - vc).dot(n), n, depth, kcs, self.x[p], 0)
                     if jq > 0.0:
                         mu = self.ex_meta[c * COL_META + CM_FRICTION]
                         imp += jq * n

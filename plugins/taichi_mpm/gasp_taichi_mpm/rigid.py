@@ -165,7 +165,7 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
         return out
 
     @ti.func
-    def contact_impulse(self, p, e_sup, vn, n, depth, kcs, x):
+    def contact_impulse(self, p, e_sup, vn, n, depth, kcs, x, own):
         """Point p's normal impulse (kg m/s) at ``depth`` (m, > 0) in a support of restitution ``e_sup``, ``vn`` its
         normal velocity relative to it (m/s), ``n`` its normal, ``kcs = (k, c, skin)``: ``max(0, dt (k depth - c
         vn))``; a rigid body's point with restitution (``gasp_core.mpm.restitution``) while its body bounces:
@@ -183,7 +183,9 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
             if self.rb_e[b] >= 0.0:
                 n_t = ti.max(ti.cast(ti.max(self.rb_nlast[b], self.rb_ndepth[b]), self.real), 1.0)
                 sk = self.rb_nface[b] / ti.max(self.rb_nface[b], n_t)
-                if self.rb_ndepth[b] > 0:
+                if own != 0:   # round 88: a rigid sphere's share of its body's stiffness on a plane, not scaled
+                    sk = 1.0
+                elif self.rb_ndepth[b] > 0:
                     # the points this P2G finds in the planes counted (rigid_depth): N / max(n_t, min(N, LEVER n_t)),
                     # Omega dt 1 on more than N points, at most 1 on a few (gasp_core.mpm.rigid.support_scale)
                     sk = self.rb_nface[b] / ti.max(n_t, ti.min(self.rb_nface[b], RIGID_LEVER * n_t))

@@ -14,7 +14,8 @@ Mixed into :class:`gasp_taichi_mpm.rigid.Rigid` (so into :class:`gasp_taichi_mpm
 """
 import taichi as ti
 
-from gasp_core.mpm.rigid import RIGID_SLOP
+from gasp_core.mpm.contact import DAMPING
+from gasp_core.mpm.rigid import RIGID_OMEGA_DT, RIGID_SLOP
 
 
 class RigidLift:
@@ -30,17 +31,26 @@ class RigidLift:
 
     @ti.func
     def plane_point(self, p, n):
-        """Where point p meets a plane of normal ``n``, and its velocity there: a rigid sphere's points (round 88,
-        ``gasp_core.mpm.round_ground``) at its exact contact point ``c - R n``, moving at ``v + w x (c - R n - x)``;
-        every other point at itself (warp_mpm's ``contact.build_plane_point``)."""
+        """``(x, v, kcs, own)``: where point p meets a plane of normal ``n``, its velocity there, its contact row and
+        whether that row is its own (not scaled by ``contact_impulse``). A rigid sphere's points (round 88,
+        ``gasp_core.mpm.round_ground``): its exact contact point ``c - R n``, moving at ``v + w x (c - R n - x)``,
+        each its mass's share of the body's stiffness ``(w2 m, 2 DAMPING sqrt(w2) m, 0)``, ``w2 = (RIGID_OMEGA_DT /
+        dt)^2``; every other point at itself with ``p_contact[p]`` (warp_mpm's ``contact.build_plane_point``)."""
         x = self.x[p]
         v = self.v[p]
+        kcs = self.p_contact[p]
+        own = 0
         if self.is_sphere(p):
             b = self.body[p]
             xq = self.rb_c[b] - self.rb_rad[b] * ti.cast(n, ti.f64)
             v += ti.cast(self.rb_w[b].cross(xq - ti.cast(x, ti.f64)), self.real)
             x = ti.cast(xq, self.real)
-        return x, v
+            dt = self.dt[None]
+            m = self.p_mass[p]
+            k = (RIGID_OMEGA_DT / dt) ** 2 * m
+            kcs = ti.Vector([k, 2.0 * DAMPING * ti.sqrt(k * m), 0.0], self.real)
+            own = 1
+        return x, v, kcs, own
 
     @ti.func
     def depth_point(self, p, t, sliced: ti.template()):
@@ -53,9 +63,11 @@ class RigidLift:
             for q in range(self.n_planes):
                 n = ti.cast(self.plane_n[q], ti.f64)
                 x = ti.cast(self.x[p], ti.f64)
+                skin = ti.cast(kcs[2], ti.f64)
                 if self.rb_rad[b] > 0.0:   # round 88: a rigid sphere at its contact point (plane_point)
                     x = self.rb_c[b] - self.rb_rad[b] * n
-                d = ti.cast(self.plane_row[q][0], ti.f64) + ti.cast(kcs[2], ti.f64) - n.dot(x)
+                    skin = 0.0
+                d = ti.cast(self.plane_row[q][0], ti.f64) + skin - n.dot(x)
                 if d > 0.0:
                     k = b * self.n_planes + q
                     ti.atomic_max(self.rb_dmax[k], d)

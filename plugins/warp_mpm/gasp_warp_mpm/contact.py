@@ -59,7 +59,7 @@ def build_contact(Ft):
 
 @functools.cache
 def build_contact_impulse(Ft):
-    """``contact_impulse(ex, b, e_sup, vn, mark, n, depth, kcs, dt) -> j_n``, a Warp function of the scalar type
+    """``contact_impulse(ex, b, e_sup, vn, mark, n, depth, kcs, dt, x, own) -> j_n``, a Warp function of the scalar type
     ``Ft``: a point of body ``b`` at ``depth`` (m, > 0) in a support of restitution ``e_sup``, ``vn`` its normal
     velocity relative to it (m/s), ``n`` the normal, ``kcs = (k, c, skin)``: ``max(0, dt (k depth - c vn))``; a
     rigid body's point with restitution (``ex.rb_e[b]`` >= 0, ``gasp_core.mpm.restitution``) while its body
@@ -67,7 +67,7 @@ def build_contact_impulse(Ft):
     Walton & Braun 1986), ``e = ex.rb_e[b] e_sup``; once ``e`` times the approach speed of the body's ongoing contact
     (``ex.rb_vin[b]``) is below ``ex.v_rest``, a damped law set by the body (``c = 2 DAMPING dt k``); its ``k``
     times ``N / max(N, N_touch)`` (``ex.rb_nface``, ``ex.rb_nlast``:
-    ``gasp_core.mpm.rigid.face_counts``); its damping on the normal velocity of its patch's centre on a rounded
+    ``gasp_core.mpm.rigid.face_counts``; ``own`` 1: unscaled, a rigid sphere's share on a plane, round 88); its damping on the normal velocity of its patch's centre on a rounded
     body (``x`` the point, m; ``ex.rb_flat``, issue 67). With ``mark`` (in P2G) it records the touch, the
     approach speed and ``dt k depth`` along ``n`` and times ``e_sup`` for ``rigid.rigid_update``'s lift-off;
     taichi_mpm's ``Rigid.contact_impulse`` spells the same."""
@@ -76,12 +76,14 @@ def build_contact_impulse(Ft):
 
     @wp.func
     def contact_impulse(ex: Extras, b: int, e_sup: Ft, vn: Ft, mark: int, n: vec3, depth: Ft, kcs: vec3, dt: Ft,
-                        x: vec3):
+                        x: vec3, own: int):
         jq = wp.max(dt * (kcs[0] * depth - kcs[1] * vn), Ft(0.0))
         if ex.rb_e[b] >= Ft(0.0):
             n_t = wp.max(Ft(wp.max(ex.rb_nlast[b], ex.rb_ndepth[b])), Ft(1.0))
             sk = ex.rb_nface[b] / wp.max(ex.rb_nface[b], n_t)
-            if ex.rb_ndepth[b] > 0:
+            if own != 0:   # round 88: a rigid sphere's share of its body's stiffness (plane_point), not scaled
+                sk = Ft(1.0)
+            elif ex.rb_ndepth[b] > 0:
                 # the points this P2G finds in the planes counted (rigid.py's rigid_depth): N / max(n_t, min(N,
                 # LEVER n_t)), Omega dt 1 on more than N points, at most 1 on a few (gasp_core.mpm.rigid.
                 # support_scale; taichi_mpm's contact_impulse)
@@ -117,17 +119,22 @@ def build_contact_impulse(Ft):
 
 @functools.cache
 def build_plane_point(Ft):
-    """``plane_point(ex, b, x, v, n) -> (x*, v*)``, a Warp function of the scalar type ``Ft``: where a point of body
-    ``b`` at ``x`` with velocity ``v`` meets a plane of normal ``n``. A rigid sphere (``ex.rb_rad[b]`` > 0, round 88,
-    ``gasp_core.mpm.round_ground``) meets it at its exact contact point ``x* = c - R n`` (``c = ex.rb_cx[b]``), moving
-    at ``v + w x (x* - x)`` (``w = ex.rb_wx[b]``); every other point at itself. taichi_mpm's ``Rigid.plane_point``."""
+    """``plane_point(ex, b, x, v, n, kcs, m) -> (x*, v*, kcs*, own)``, a Warp function of the scalar type ``Ft``:
+    where a point of body ``b`` at ``x`` with velocity ``v``, contact row ``kcs`` and mass ``m`` meets a plane of
+    normal ``n``. A rigid sphere (``ex.rb_rad[b]`` > 0, round 88, ``gasp_core.mpm.round_ground``) meets it at its
+    exact contact point ``x* = c - R n`` (``c = ex.rb_cx[b]``), moving at ``v + w x (x* - x)`` (``w = ex.rb_wx[b]``),
+    with its mass's share of the body's stiffness, ``kcs* = (w2 m, 2 DAMPING sqrt(w2) m, 0)`` (``w2 = ex.rb_w2 =
+    (RIGID_OMEGA_DT / dt)^2``), its own (``own`` 1: ``contact_impulse`` does not scale it); every other point at
+    itself with its row (``own`` 0). taichi_mpm's ``RigidLift.plane_point``."""
     vec3 = build_types(Ft)[0]
     Extras = build_extras_struct(Ft)
 
     @wp.func
-    def plane_point(ex: Extras, b: int, x: vec3, v: vec3, n: vec3):
+    def plane_point(ex: Extras, b: int, x: vec3, v: vec3, n: vec3, kcs: vec3, m: Ft):
         xq = x
         vq = v
+        kq = kcs
+        own = int(0)
         R = ex.rb_rad[b]
         if R > wp.float64(0.0):
             nd = wp.vec3d(wp.float64(n[0]), wp.float64(n[1]), wp.float64(n[2]))
@@ -136,7 +143,10 @@ def build_plane_point(Ft):
             r = c - wp.vec3d(wp.float64(x[0]), wp.float64(x[1]), wp.float64(x[2]))
             dv = wp.cross(ex.rb_wx[b], r)
             vq = v + vec3(Ft(dv[0]), Ft(dv[1]), Ft(dv[2]))
-        return xq, vq
+            k = ex.rb_w2 * m
+            kq = vec3(k, Ft(2.0 * DAMPING) * wp.sqrt(k * m), Ft(0.0))
+            own = 1
+        return xq, vq, kq, own
 
     return plane_point
 
@@ -207,12 +217,12 @@ def build_collider_contact(Ft):
         jq = Ft(0.0)
         depth = kcs[2] - phi
         if depth > Ft(0.0):
-            jq = contact_impulse(ex, b, Ft(1.0), wp.dot(v - vc, n), mark, n, depth, kcs, dt, x)
+            jq = contact_impulse(ex, b, Ft(1.0), wp.dot(v - vc, n), mark, n, depth, kcs, dt, x, 0)
         return jq, n, vc
 
     @wp.func
     def point_contact(planes: wp.array(dtype=vec3), plane_n: wp.array(dtype=vec3), kcs: vec3, x: vec3, v: vec3,
-                      dt: Ft, colc: int, ex: Extras, b: int):
+                      dt: Ft, colc: int, ex: Extras, b: int, pm: Ft):
         imp = vec3(Ft(0.0))
         bud = Ft(0.0)
         fn = vec3(Ft(0.0))
@@ -221,11 +231,12 @@ def build_collider_contact(Ft):
         jbest = Ft(0.0)
         for q in range(planes.shape[0]):   # the grounds (support 0) and the walls' faces (each its own)
             jq = Ft(0.0)
-            xq, vq = plane_point(ex, b, x, v, plane_n[q])   # round 88: a rigid sphere at its contact point
-            depth = planes[q][0] + kcs[2] - wp.dot(plane_n[q], xq)   # build_contact's plane_contact, with the law
-            if depth > Ft(0.0) and (kcs[0] > Ft(0.0) or ex.rb_rad[b] <= wp.float64(0.0)):   # a sphere: its massed
-                jq = contact_impulse(ex, b, ex.plane_e[q], wp.dot(plane_n[q], vq), 1, plane_n[q], depth, kcs, dt,
-                                     xq)
+            # round 88: a rigid sphere at its contact point, its points with mass each its share
+            xq, vq, kq, own = plane_point(ex, b, x, v, plane_n[q], kcs, pm)
+            depth = planes[q][0] + kq[2] - wp.dot(plane_n[q], xq)   # build_contact's plane_contact, with the law
+            if depth > Ft(0.0) and (kq[0] > Ft(0.0) or own == 0):
+                jq = contact_impulse(ex, b, ex.plane_e[q], wp.dot(plane_n[q], vq), 1, plane_n[q], depth, kq, dt,
+                                     xq, own)
             if jq > Ft(0.0):
                 mu = planes[q][1]
                 imp = imp + jq * plane_n[q]

@@ -66,6 +66,7 @@ def build_extras_struct(Ft):
         rb_xf: wp.array(dtype=wp.types.vector(3, wp.float64))
         rb_wx: wp.array(dtype=wp.types.vector(3, wp.float64))
         rb_rad: wp.array(dtype=wp.float64)   # round 88: a rigid sphere's radius, m (0: none; contact.build_plane_point)
+        rb_w2: Ft   # round 88: (RIGID_OMEGA_DT / dt)^2, 1/s^2: a sphere's stiffness per kg (contact.build_plane_point)
         plane_e: wp.array(dtype=Ft)
         v_rest: Ft   # m/s: a rebound below it is none
     return Extras

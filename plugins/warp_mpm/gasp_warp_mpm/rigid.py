@@ -156,9 +156,11 @@ def build_rigid_lift(Ft):
         for q in range(n_pl):
             nq = vec3d(wp.float64(plane_n[q][0]), wp.float64(plane_n[q][1]), wp.float64(plane_n[q][2]))
             xp = vec3d(wp.float64(x[p][0]), wp.float64(x[p][1]), wp.float64(x[p][2]))
+            skin = wp.float64(kcs[2])
             if rad[b] > wp.float64(0.0):   # round 88: a rigid sphere at its contact point (contact.plane_point)
                 xp = centre[b] - rad[b] * nq
-            d = wp.float64(planes[q][0]) + wp.float64(kcs[2]) - wp.dot(nq, xp)
+                skin = wp.float64(0.0)
+            d = wp.float64(planes[q][0]) + skin - wp.dot(nq, xp)
             if d > wp.float64(0.0):
                 wp.atomic_max(dmax, b * n_pl + q, d)
                 wp.atomic_add(dsum, b * n_pl + q, wp.vec4d(d * xp[0], d * xp[1], d * xp[2], d))

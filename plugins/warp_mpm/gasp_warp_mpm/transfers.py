@@ -145,7 +145,7 @@ def build_p2g(Ft):
         mom0 = pm * v[p] - A * fx
         idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
         if planes.shape[0] > 0 or colc != 0:
-            imp, bud, fn, fv, sup = point_contact(planes, plane_n, p_contact[p], x[p], v[p], dt, colc, ex, body[p])
+            imp, bud, fn, fv, sup = point_contact(planes, plane_n, p_contact[p], x[p], v[p], dt, colc, ex, body[p], pm)
             mom0 = mom0 + imp
             if sup >= 0 and shift.shape[0] > 0:   # the nodes' support, for the contact's balance (balance.py)
                 mark_nodes(grid_fbody, idx0, n_grid, W, imp, body[p] * n_sup + sup)

@@ -105,11 +105,11 @@ def build_row_sums(Ft):
             kcs = p_contact[p]
             for q in range(planes.shape[0]):
                 jq = Ft(0.0)
-                xq, vq = plane_point(ex, b, xp, vp, plane_n[q])   # round 88: a rigid sphere at its contact point
-                depth = planes[q][0] + kcs[2] - wp.dot(plane_n[q], xq)
+                xq, vq, kq, own = plane_point(ex, b, xp, vp, plane_n[q], kcs, p_mass[p])   # round 88: a sphere
+                depth = planes[q][0] + kq[2] - wp.dot(plane_n[q], xq)
                 if depth > Ft(0.0):
-                    jq = contact_impulse(ex, b, ex.plane_e[q], wp.dot(plane_n[q], vq), 0, plane_n[q], depth, kcs, dt,
-                                         xq)
+                    jq = contact_impulse(ex, b, ex.plane_e[q], wp.dot(plane_n[q], vq), 0, plane_n[q], depth, kq, dt,
+                                         xq, own)
                 if jq > Ft(0.0):
                     nq = plane_n[q]
                     acc_contact(pjs, blk, b * n_sup + int(planes[q][2]), f64(jq), v64(f64(xq[0]), f64(xq[1]),
