@@ -12,15 +12,20 @@ The exact contact of a sphere of centre ``c`` and radius ``R`` with a plane ``n 
 at the depth ``o - n . (c - R n)``, and its normal force passes through ``c``. The engines keep their per-point
 contact and give it that force exactly: each point ``p`` of a sphere reads the plane at the contact point ``x* = c -
 R n`` (its depth, its lever, the friction's point and the restitution's approach speed ``n . (v_p + w x (x* -
-x_p))``, the contact point's), with the stiffness share ``k_p = (Omega / dt)^2 m_p`` (:func:`gasp_core.mpm.rigid.
-rigid_contact`). All its points then take normal impulses in proportion to their masses, whose sum is the sphere's
-(``Omega dt`` 1 on the body's whole mass) and whose moment about the mass centre is ``sum m_p (x_p - c) x n j / M =
-0``. The friction acts on the body as one at ``x*`` (each plugin's slide brake, which reads the budget's points).
+x_p))``, the contact point's), with its mass's share of the body's stiffness, ``k_p = (Omega / dt)^2 m_p``
+(``Omega dt = gasp_core.mpm.rigid.RIGID_OMEGA_DT``; each plugin's ``plane_point``), unscaled by the touching count.
+All its points then take normal impulses in proportion to their masses, whose sum is the sphere's (``Omega dt`` 1 on
+the body's whole mass) and whose moment about the mass centre is ``sum m_p (x_p - c) x n j / M = 0``. The friction
+acts on the body as one at ``x*`` (each plugin's slide brake, which reads the budget's points). The position-level
+non-penetration (``rigid_depth``, ``settle_projection``) and the start's lift (``gasp_core.mpm.rigid.lift_setup``)
+read the same depth. The ``[[collider]]`` contact keeps the points and their rows (``rigid_contact``): a ball on a
+mesh ramp still rolls on its Gaussians (round 88 leaves it; ``tests/test_ramp_collider.py``'s ball meets its check).
 
 Which bodies: a rigid body whose points fill a sphere (``gasp_core.mpm.roll_contact.round_body`` and
 ``gasp_core.mpm.roll_contact.sphere_radius``: principal moments within 5 %, no point beyond the volume's radius by
 more than a spacing), with the option ``roll_contact`` on (the default), whose exact sphere it already is against
-soft bodies; the same radius, the declared volume's. Bodies with faces, cylinders and other round bodies keep their
+soft bodies. Its radius (:func:`ground_radius`): the sphere its Gaussians lie on, or with none the declared volume's
+(the soft contact's). Bodies with faces, cylinders and other round bodies keep their
 points. Sources: the contact of a sphere with a half-space (Johnson 1985, "Contact Mechanics", Ch. 4: its normal
 force through the centre); rigid-body engines collide a sphere as its primitive, not as a mesh of its samples (the
 sphere shapes of Bullet and PhysX, docs/rigid.md "Round 88").

@@ -190,10 +190,8 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
                     # Omega dt 1 on more than N points, at most 1 on a few (gasp_core.mpm.rigid.support_scale)
                     sk = self.rb_nface[b] / ti.max(n_t, ti.min(self.rb_nface[b], RIGID_LEVER * n_t))
                 jk = dt * kcs[0] * sk * depth
-                # settling: per point c = 2 zeta dt k' (M = k N dt^2 at Omega dt = 1, gasp_core.mpm.rigid.
-                # RIGID_OMEGA_DT): a substep takes 2 zeta n / N of the body's normal speed on n points, at most 2 zeta
-                # = 1 (explicit damping is stable below 2); sqrt(N / n_t) more (the body's ratio exactly) overshot
-                # when more points touched than in the last substep (a ladder ball gained 633 % of its fall energy)
+                # settling: per point c = 2 zeta dt k' (M = k N dt^2 at Omega dt = 1): a substep takes 2 zeta n / N of the body's normal speed on n
+                # points, at most 2 zeta = 1; sqrt(N / n_t) more overshot (a ladder ball gained 633 % of its fall energy)
                 c = 2.0 * self.rest_zeta * dt * kcs[0] * sk
                 jq = ti.max(jk - dt * c * self.rolling_vn(x, b, vn, n), 0.0)
                 ti.atomic_add(self.rb_count[b], 1)
