@@ -96,4 +96,46 @@ def test_a_sphere_in_the_ground_is_lifted_by_its_spheres_depth():
     s = _setup(x - [0.0, 0.0, 0.01], p_vol, n)   # 1 cm into the ground
     lifted = lift_setup(s)
     assert np.asarray(lifted.x)[:, 2].mean() - np.asarray(s.x)[:, 2].mean() == pytest.approx(0.01, abs=1e-6)
-    assert rg.sphere_depth(C - [0.0, 0.0, 0.01], R, [0.0, 0.0, 1.0], GROUND) == pytest.approx(0.01)
+    assert rg.shape_depth(C - [0.0, 0.0, 0.01], np.eye(3), [R, 0, 0, 0, 0], [0.0, 0.0, 1.0], GROUND) == \
+        pytest.approx(0.01)
+
+
+def _cylinder(tilt_deg=0.0, gaussians=True, seed=0):
+    """A solid cylinder of radius R, 15 cm long, its axis along y turned by ``tilt_deg`` about x: a lattice fill and
+    (``gaussians``) a seeded random shell on its side."""
+    L, rng = 0.15, np.random.default_rng(seed)
+    x, _ = box_points(-np.array([R, L / 2, R]), np.array([R, L / 2, R]), H)
+    x = x[np.linalg.norm(x[:, [0, 2]], axis=1) <= R - H / 2]
+    vol = math.pi * R * R * L
+    n = 2000 if gaussians else 0
+    phi, y = rng.uniform(0, 2 * math.pi, n), rng.uniform(-L / 2, L / 2, n)
+    shell = np.stack([R * np.cos(phi), y, R * np.sin(phi)], axis=1)
+    t = math.radians(tilt_deg)
+    rot = np.array([[1, 0, 0], [0, math.cos(t), -math.sin(t)], [0, math.sin(t), math.cos(t)]])
+    pts = np.concatenate([shell, x]) @ rot.T + C
+    if not n:
+        return pts, np.full(len(x), vol / len(x)), 0, rot
+    r_fill = (x[:, [0, 2]] ** 2).sum(1)   # the volumes that give a solid cylinder's I = 0.5 M R^2 about its axis
+    vf, vs = np.linalg.solve([[len(x), n], [r_fill.sum(), n * R * R]], [vol, 0.5 * vol * R * R])
+    return pts, np.r_[np.full(n, vs), np.full(len(x), vf)], n, rot
+
+
+@pytest.mark.parametrize("tilt", [0.0, 30.0])
+@pytest.mark.parametrize("gaussians", [True, False])
+def test_a_cylinders_shape_is_found_and_its_axis_fitted(tilt, gaussians):
+    x, p_vol, n, rot = _cylinder(tilt, gaussians)
+    shape = rg.ground_shapes(_setup(x, p_vol, n))[0]
+    assert shape[1] == pytest.approx(0.075, rel=0.05) and shape[0] == pytest.approx(R, rel=0.02)
+    axis = rot @ [0.0, 1.0, 0.0]
+    assert abs(abs(shape[2:] @ axis) - 1.0) < 1e-6   # within 0.08 degrees of the true axis
+    band = rg.level_band(rg.ground_shapes(_setup(x, p_vol, n)), 0.0125)[0]
+    assert band == pytest.approx(0.05 * 0.0125 / (2 * shape[1]))
+
+
+def test_a_lying_cylinders_depth_is_its_lowest_line():
+    shape = np.array([R, 0.075, 0.0, 1.0, 0.0])
+    assert rg.shape_depth(C, np.eye(3), shape, [0, 0, 1.0], GROUND) == pytest.approx(0.0, abs=1e-12)
+    t = math.radians(10.0)   # tilted 10 degrees about x: its lowest rim R cos + h sin below the centre
+    rot = np.array([[1, 0, 0], [0, math.cos(t), -math.sin(t)], [0, math.sin(t), math.cos(t)]])
+    want = R * math.cos(t) + 0.075 * math.sin(t) - R
+    assert rg.shape_depth(C, rot, shape, [0, 0, 1.0], GROUND) == pytest.approx(want)

@@ -23,7 +23,7 @@ import numpy as np
 
 from gasp_core.mpm.contact import DAMPING, SKIN, rigid_bodies
 from gasp_core.mpm.materials import P_LAM, P_MU
-from gasp_core.mpm.round_ground import ground_radius, sphere_depth
+from gasp_core.mpm.round_ground import ground_radius, ground_shapes, shape_depth   # noqa: F401 (re-exported)
 
 #: Elastic modulus (Pa) a rigid body shows the step and contact rules of the grid engines
 #: (:func:`step_view`): small enough that neither its wave speed nor its contact frequency sets a step.
@@ -217,16 +217,16 @@ def lift_setup(setup):
     x = np.array(setup.x, dtype=np.float64)
     body, vol = np.asarray(setup.body_id), np.asarray(setup.p_vol, np.float64)
     moved, touching = False, touch_rows(setup)
-    sphere, m = ground_radius(setup), np.asarray(setup.p_mass, np.float64)
+    shapes, m = ground_shapes(setup), np.asarray(setup.p_mass, np.float64)
     for b in np.flatnonzero(rigid):
         sel = (body == b) & (vol > 0.0) & touching
         if not sel.any():
             continue
         for n, row in zip(normals, rows):
             depth = float((row[0] + skin[sel] - x[sel] @ n).max())
-            if sphere[b] > 0.0:   # round 88: its exact sphere's (round_ground)
+            if shapes[b, 0] > 0.0:   # round 88: its exact sphere's or cylinder's (round_ground), at its rest pose
                 c = (m[body == b, None] * x[body == b]).sum(0) / m[body == b].sum()
-                depth = sphere_depth(c, sphere[b], n, row[0])
+                depth = shape_depth(c, np.eye(3), shapes[b], n, row[0])
             if depth > 0.0:
                 x[body == b] += depth * n
                 moved = True

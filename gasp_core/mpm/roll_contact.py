@@ -226,7 +226,7 @@ def patch_friction(mu: float, lam: np.ndarray, ut: np.ndarray, S: float, J: np.n
     return J1 * (mu * L / n) if n > mu * L else J1
 
 
-def cylinder_shape(X0: np.ndarray, volume: float, spacing: float) -> np.ndarray:
+def cylinder_shape(X0: np.ndarray, volume: float, spacing: float, weights=None) -> np.ndarray:
     """Round 72: the exact solid cylinder of a rigid body's points ``X0`` ((N, 3) m about its mass centre, rest frame)
     of total ``volume`` (m^3): ``[R, h, e0x, e0y, e0z]`` (radius, half-length, unit axis), or zeros where the points
     fill no cylinder. Each principal axis (and each frame axis) is tried as the axis ``e0``: its length ``L`` from the
@@ -236,12 +236,15 @@ def cylinder_shape(X0: np.ndarray, volume: float, spacing: float) -> np.ndarray:
     :data:`SPHERE_TOL` (``<rho^2> + s^2/6 = R^2 / 2``; round 73, :data:`CYL_COVER`: of ``R`` or of the radius the
     points' cells cover, ``N s^3 = pi R^2 L``), its cross-section is round (its support in
     8 directions across the axis within a spacing of each other: a square's differ by 0.41 of its half-side) and each
-    end is a full disc (its last layer reaches ``R`` within a spacing: an ellipsoid's does not)."""
+    end is a full disc (its last layer reaches ``R`` within a spacing: an ellipsoid's does not). ``weights`` (N,): the
+    moments weighted by them (round 88's ground shape: the points' volumes, where a dense shell of Gaussians over a
+    fill outnumbers it); None: each point alike."""
     X0 = np.asarray(X0, float)
+    w = np.ones(len(X0)) if weights is None else np.asarray(weights, float)
     out = np.zeros(5)
     if len(X0) < 8:
         return out
-    _, vecs = np.linalg.eigh(np.sum(X0 * X0) * np.eye(3) - X0.T @ X0)
+    _, vecs = np.linalg.eigh(np.sum(w * (X0 * X0).sum(1)) * np.eye(3) - (w[:, None] * X0).T @ X0)
     cands = [vecs[:, i] for i in range(3)] + list(np.eye(3))
     s = float(spacing)
     for e in cands:
@@ -249,11 +252,11 @@ def cylinder_shape(X0: np.ndarray, volume: float, spacing: float) -> np.ndarray:
         z = X0 @ e
         rr = X0 - np.outer(z, e)
         rho = np.linalg.norm(rr, axis=1)
-        L = float(np.sqrt(12.0 * np.mean(z * z) + s * s))
+        L = float(np.sqrt(12.0 * np.average(z * z, weights=w) + s * s))
         R = float(np.sqrt(volume / (np.pi * L)))
         if np.abs(z).max() > 0.5 * L + s:
             continue
-        m2 = np.mean(rho * rho) + s * s / 6.0
+        m2 = np.average(rho * rho, weights=w) + s * s / 6.0
         R_own = float(np.sqrt(len(X0) * s ** 3 / (np.pi * L)))   # round 73: the disc the lattice's cells cover
         if min(abs(m2 / (R * R / 2.0) - 1.0), abs(m2 / (R_own * R_own / 2.0) - 1.0) if CYL_COVER else np.inf) > \
                 SPHERE_TOL or rho.max() > R + s:

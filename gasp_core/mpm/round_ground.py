@@ -37,32 +37,37 @@ import numpy as np
 import gasp_core.mpm.roll_contact as roll
 from gasp_core.mpm.contact import rigid_bodies
 
-#: 1: a rigid sphere meets the planes on its exact sphere (this module); 0: the broken variant, round 87's contact on
-#: its points (a polyhedron: the catch of ``tests/test_roll_sizes.py``).
+#: 1: a rigid sphere or solid cylinder meets the planes on its exact shape (this module); 0: the broken variant, round
+#: 87's contact on its points (a polyhedron: the catch of ``tests/test_roll_sizes.py``).
 ROUND_GROUND = 1
+#: A cylinder meets a plane on the line under its axis while ``|n . e|`` (its axis against the plane's normal) is under
+#: this (8 degrees from standing on an end); nearer to standing it rests on its end's points, a face.
+CYL_LINE = 0.99
 
 
-def ground_radius(setup) -> np.ndarray:
-    """Per body, the exact sphere's radius (m) a rigid sphere meets the planes with, 0.0 for every other body.
+def ground_shapes(setup) -> np.ndarray:
+    """Per body the exact round shape a rigid body meets the planes with: ``[R, h, e0x, e0y, e0z]``.
 
     Parameters
     ----------
     setup : SimSetup
-        Its ``x`` (n, 3) m, ``p_mass`` (n,) kg, ``p_vol`` (n,) m^3, ``body_id`` (n,) int, ``materials`` and
-        ``options`` (``roll_contact``, ``gasp_core.mpm.roll_contact.on``).
+        Its ``x`` (n, 3) m, ``p_mass`` (n,) kg, ``p_vol`` (n,) m^3, ``body_id`` (n,) int, ``n_render``, ``faint``,
+        ``materials`` and ``options`` (``roll_contact``, ``gasp_core.mpm.roll_contact.on``).
 
     Returns
     -------
-    ndarray, shape (n_bodies,), float64
-        Where the body is rigid and its points fill a sphere (``roll_contact.sphere_radius`` > 0), with
-        :data:`ROUND_GROUND` and the option on: the sphere its Gaussians lie on (the rows under ``n_render`` with
-        mass, but faint ones: the median distance from the mass centre of those within a point spacing of the
-        farthest; a lattice of Gaussians 10 cm across rests with its lowest within 0.035 dx of the ground, as on its
-        points before), or with none the declared volume's radius ``(3 V / 4 pi)^(1/3)`` (a fill alone: its surface
-        half a spacing out, as :func:`gasp_core.mpm.rigid.rigid_contact`'s skin put it); else 0.
+    ndarray, shape (n_bodies, 5), float64
+        A rigid sphere (``roll_contact.round_body`` and ``sphere_radius`` > 0): ``[R, 0, 0, 0, 0]``. A rigid solid
+        cylinder (``roll_contact.cylinder_shape``): ``[R, h, e0]``, its half-length ``h`` (m) and unit axis ``e0`` in
+        its rest frame (the start's world axes). ``R`` (m): the sphere or cylinder its Gaussians lie on (the rows
+        under ``n_render`` with mass, but faint ones: the median distance from the mass centre, or from the axis, of
+        those within a point spacing of the farthest; a lattice of Gaussians 10 cm across rests with its lowest within
+        0.035 dx of the ground, as on its points before), or with none the shape's own (the declared volume's: a fill
+        alone's surface half a spacing out, as :func:`gasp_core.mpm.rigid.rigid_contact`'s skin put it). Zeros for
+        every other body, and for all without :data:`ROUND_GROUND` or the option.
     """
     rigid = np.asarray(rigid_bodies(setup.materials), bool)
-    out = np.zeros(len(rigid))
+    out = np.zeros((len(rigid), 5))
     if not ROUND_GROUND or not roll.on(setup) or not rigid.any():
         return out
     body = np.asarray(setup.body_id)
@@ -77,20 +82,75 @@ def ground_radius(setup) -> np.ndarray:
         sel = (body == b) & (mass > 0.0)
         if sel.sum() < 8:
             continue
-        X0 = np.zeros_like(x)
-        X0[sel] = x[sel] - (mass[sel, None] * x[sel]).sum(0) / mass[sel].sum()
-        if not roll.round_body(X0[sel]):
+        X0 = x[sel] - (mass[sel, None] * x[sel]).sum(0) / mass[sel].sum()
+        s, V = roll.point_spacing(X0), float(vol[sel].sum())
+        shape = np.zeros(5)
+        if roll.round_body(X0):
+            shape[0] = roll.sphere_radius(X0, V, s)
+        elif roll.CYLINDER:
+            shape = roll.cylinder_shape(X0, V, s, vol[sel])
+        if shape[0] <= 0.0:
             continue
-        s = roll.point_spacing(X0[sel])
-        out[b] = roll.sphere_radius(X0[sel], float(vol[sel].sum()), s)
-        if out[b] > 0.0 and (sel & surface).any():   # its Gaussians are its surface: the sphere they lie on
-            d = np.linalg.norm(X0[sel & surface], axis=1)
-            out[b] = float(np.median(d[d >= d.max() - s]))
+        on = surface[sel]
+        if on.any() and shape[1] > 0.0:   # a cylinder's axis: the one its Gaussians lie around
+            shape[2:] = fit_axis(X0[on], shape[2:])
+        if on.any():   # its Gaussians are its surface: the sphere or cylinder they lie on
+            r = X0[on] - np.outer(X0[on] @ shape[2:], shape[2:])   # from the axis (a sphere's: 0, from the centre)
+            d = np.linalg.norm(r, axis=1)
+            shape[0] = float(np.median(d[d >= d.max() - s]))
+        out[b] = shape
     return out
 
 
-def sphere_depth(centre, radius: float, normal, offset: float) -> float:
-    """The depth (m, positive inside) of a sphere of ``centre`` (3,) m and ``radius`` m in the plane ``normal . x =
-    offset`` (unit ``normal`` pointing out of the support): ``offset - normal . (centre - radius normal)``."""
+def fit_axis(X: np.ndarray, e0: np.ndarray) -> np.ndarray:
+    """The unit axis through the origin (the mass centre) that the points ``X`` (N, 3) m, a cylinder's Gaussians, lie
+    around at one distance: least squares of ``|x - (x . e) e| - R`` over ``e`` and ``R`` (scipy's
+    ``least_squares``), from ``e0``. The principal axis ``roll_contact.cylinder_shape`` takes from the moments is off
+    by the sampling's asymmetry: 0.75 degrees for 2,400 random Gaussians on a 10 cm cylinder, so that it rested on one
+    end's rim and its slipping spin-up fell 13 % short (docs/rigid.md "Round 88")."""
+    from scipy.optimize import least_squares
+    e0 = np.asarray(e0, np.float64) / np.linalg.norm(e0)
+    t1 = np.cross(e0, [1.0, 0.0, 0.0] if abs(e0[0]) <= 0.9 else [0.0, 1.0, 0.0])
+    t1 /= np.linalg.norm(t1)
+    t2 = np.cross(e0, t1)
+
+    def axis(p):
+        e = e0 + p[0] * t1 + p[1] * t2
+        return e / np.linalg.norm(e)
+
+    def res(p):
+        e = axis(p)
+        return np.linalg.norm(X - np.outer(X @ e, e), axis=1) - p[2]
+
+    r0 = float(np.median(np.linalg.norm(X - np.outer(X @ e0, e0), axis=1)))
+    return axis(least_squares(res, [0.0, 0.0, r0]).x)
+
+
+def level_band(shapes: np.ndarray, dx: float) -> np.ndarray:
+    """Per body the band on ``|n . e|`` within which a cylinder's line is taken level with the plane (shape
+    (n_bodies,), float64; 0 for the others): ``RIGID_SLOP dx / (2 h)``, its ends within the rigid contact's slop of each
+    other (``gasp_core.mpm.rigid.RIGID_SLOP``, the depth a resting body may keep). Beyond it the line tilts by the rest
+    (continuous: a cylinder landing on an end rests on it). Its axis, fitted to its Gaussians (:func:`fit_axis`), is
+    uncertain by their sampling (0.01-0.07 degrees for 2,400-4,800 random Gaussians): taken exactly, a 10 cm cylinder
+    lying on a slope rested on one end's rim (0.17 mm higher at the other) and its slipping spin-up fell 6.1 % short."""
+    from gasp_core.mpm.rigid import RIGID_SLOP
+    shapes = np.asarray(shapes, np.float64)
+    h = shapes[:, 1]
+    return np.where(h > 0.0, RIGID_SLOP * float(dx) / (2.0 * np.where(h > 0.0, h, 1.0)), 0.0)
+
+
+def ground_radius(setup) -> np.ndarray:
+    """``ground_shapes(setup)[:, 0]``: per body the radius (m) of its exact round shape, 0.0 for the others."""
+    return ground_shapes(setup)[:, 0]
+
+
+def shape_depth(centre, rot, shape, normal, offset: float) -> float:
+    """The depth (m, positive inside) in the plane ``normal . x = offset`` (unit ``normal`` out of the support) of a
+    round shape (a :func:`ground_shapes` row) at ``centre`` (3,) m turned by ``rot`` (3, 3) from its rest frame: a
+    sphere's ``offset - n . c + R``; a cylinder's lowest point, ``offset - n . c + R |n_perp| + h |n . e|`` (``e =
+    rot e0``, ``n_perp`` the normal across the axis)."""
     n = np.asarray(normal, np.float64)
-    return float(offset - n @ (np.asarray(centre, np.float64) - radius * n))
+    R, h, e0 = float(shape[0]), float(shape[1]), np.asarray(shape[2:], np.float64)
+    e = np.asarray(rot, np.float64) @ e0
+    ne = float(n @ e)
+    return float(offset - n @ np.asarray(centre, np.float64) + R * np.sqrt(max(1.0 - ne * ne, 0.0)) + h * abs(ne))

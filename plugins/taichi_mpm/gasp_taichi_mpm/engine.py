@@ -19,7 +19,7 @@ from gasp_core.mpm.shared_fields import shared_field_warning
 from gasp_core.mpm.grid_engine import choose_dt, GridEngineBase, transfer_alpha
 from gasp_core.mpm.materials import JELLY, initial_Jp, material_table
 from gasp_core.mpm.rigid_hold import hold_setup
-from gasp_core.mpm.rigid import body_frames, face_counts, ground_radius, rigid_contact, rigid_mask, step_view, zero_stress
+from gasp_core.mpm.rigid import body_frames, face_counts, ground_shapes, rigid_contact, rigid_mask, step_view, zero_stress
 from gasp_core.seam.memory import check_memory, estimate_bytes
 from gasp_core.mpm.restitution import body_table, plane_table, rest_speed
 from gasp_core.mpm.points import blow_up_rows, held_codes, passive_bounds, passive_floor_friction
@@ -233,7 +233,7 @@ class TaichiMPMEngine(GridEngineBase, StateClock):
         """Rigid bodies' restitution, hold of the flowing points (``flows``: per body) and pairs (round 62, rigid_pairs)."""
         self.solver.set_spin_shares(setup)   # round 76: the spin the points carry, booked (spin_booking.py)
         self.solver.set_restitution(body_table(setup), plane_table(setup, self.solver.n_planes), rest_speed(setup),
-                                    face_counts(setup), ground_radius(setup))
+                                    face_counts(setup), ground_shapes(setup))
         self.solver.allocate_rigid_hold(*hold_setup(setup, setup.dx, flows, any_rigid), flows)
         self.solver.set_pairs(*pair_data(setup), support=support_data(setup))
 

@@ -64,7 +64,7 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
         self.rb_c0 = ti.Vector.field(3, ti.f64, shape=max(nb, 1))   # the centre where the contact began
         self.rb_steps = ti.field(ti.i32, shape=max(nb, 1))   # the contact's substeps so far
         # the points of the largest flat face (gasp_core.mpm.rigid.face_counts), those touching now and last
-        self.rb_nface, self.rb_rad = ti.field(self.real, shape=max(nb, 1)), ti.field(ti.f64, shape=max(nb, 1))
+        self.rb_nface, self.rb_rad, self.rb_band, self.rb_ax = (*(ti.field(t, shape=max(nb, 1)) for t in (self.real, ti.f64, ti.f64)), ti.Vector.field(3, ti.f64, shape=max(nb, 1)))   # round 88: rigid_lift.set_round
         self.rb_count, self.rb_nlast = (ti.field(ti.i32, shape=max(nb, 1)) for _ in range(2))
         # the points in a plane at the pose the next P2G takes (rigid_depth)
         self.rb_ndepth = ti.field(ti.i32, shape=max(nb, 1))
@@ -120,11 +120,11 @@ class Rigid(RigidLift, RigidFriction, RigidPairs):
     def set_restitution(self, body_e, plane_e, v_rest: float, n_face, sphere) -> None:
         """The rigid bodies' restitution (``gasp_core.mpm.restitution``): ``body_e`` per body (shape (n_bodies,), -1 for a
         body without it), ``plane_e`` per contact plane (shape (n_planes,)), ``v_rest`` (m/s) the rebound speed below which a
-        contact is inelastic, ``n_face`` per body (``gasp_core.mpm.rigid.face_counts``), ``sphere`` per body its exact sphere's radius, m (0: none; round 88, ``gasp_core.mpm.round_ground.ground_radius``)."""
+        contact is inelastic, ``n_face`` per body (``gasp_core.mpm.rigid.face_counts``), ``sphere`` per body its exact round shape (round 88, ``gasp_core.mpm.round_ground.ground_shapes``)."""
         if self.any_rigid:
             self.rb_e.from_numpy(np.asarray(body_e, self._np_real))
             self.rb_nface.from_numpy(np.asarray(n_face, self._np_real))
-            self.rb_rad.from_numpy(np.asarray(sphere, np.float64))
+            self.set_round(sphere)   # round 88: rigid_lift.py
             if self.n_planes:
                 self.plane_e.from_numpy(np.asarray(plane_e, self._np_real))
             self.v_rest[None] = float(v_rest)

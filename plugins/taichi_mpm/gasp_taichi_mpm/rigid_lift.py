@@ -12,10 +12,12 @@ contact, :meth:`RigidLift.lift_off` (called by ``Rigid.rigid_update``; ``gasp_co
 Mixed into :class:`gasp_taichi_mpm.rigid.Rigid` (so into :class:`gasp_taichi_mpm.solver.MPMSolver`), whose fields
 (``rb_*``, ``p_contact``, ``plane_n``, ``plane_row``) it reads.
 """
+import numpy as np
 import taichi as ti
 
 from gasp_core.mpm.contact import DAMPING
 from gasp_core.mpm.rigid import RIGID_OMEGA_DT, RIGID_SLOP
+from gasp_core.mpm.round_ground import CYL_LINE, level_band
 
 
 class RigidLift:
@@ -23,7 +25,8 @@ class RigidLift:
 
     @ti.func
     def is_sphere(self, p) -> bool:
-        """Whether point p belongs to a rigid sphere met on its exact shape (``rb_rad`` > 0, round 88)."""
+        """Whether point p belongs to a rigid sphere or solid cylinder met on its exact shape (``rb_rad`` > 0, round
+        88)."""
         out = False
         if ti.static(self.any_rigid):
             out = self.rb_rad[self.body[p]] > 0.0
@@ -32,25 +35,58 @@ class RigidLift:
     @ti.func
     def plane_point(self, p, n):
         """``(x, v, kcs, own)``: where point p meets a plane of normal ``n``, its velocity there, its contact row and
-        whether that row is its own (not scaled by ``contact_impulse``). A rigid sphere's points (round 88,
-        ``gasp_core.mpm.round_ground``): its exact contact point ``c - R n``, moving at ``v + w x (c - R n - x)``,
+        whether that row is its own (not scaled by ``contact_impulse``). A rigid sphere's or cylinder's points (round
+        88, ``gasp_core.mpm.round_ground``): its exact contact point ``x*`` (:meth:`round_point`), moving at ``v + w x
+        (x* - x)``,
         each its mass's share of the body's stiffness ``(w2 m, 2 DAMPING sqrt(w2) m, 0)``, ``w2 = (RIGID_OMEGA_DT /
         dt)^2``; every other point at itself with ``p_contact[p]`` (warp_mpm's ``contact.build_plane_point``)."""
         x = self.x[p]
         v = self.v[p]
         kcs = self.p_contact[p]
         own = 0
+        xq = ti.cast(x, ti.f64)
         if self.is_sphere(p):
+            xq, own = self.round_point(self.body[p], xq, ti.cast(n, ti.f64))
+        if own != 0:
             b = self.body[p]
-            xq = self.rb_c[b] - self.rb_rad[b] * ti.cast(n, ti.f64)
             v += ti.cast(self.rb_w[b].cross(xq - ti.cast(x, ti.f64)), self.real)
             x = ti.cast(xq, self.real)
             dt = self.dt[None]
             m = self.p_mass[p]
             k = (RIGID_OMEGA_DT / dt) ** 2 * m
             kcs = ti.Vector([k, 2.0 * DAMPING * ti.sqrt(k * m), 0.0], self.real)
-            own = 1
         return x, v, kcs, own
+
+    @ti.func
+    def round_point(self, b, x, n):
+        """``(x*, on)``: where point ``x`` (f64) of round body b meets a plane of normal ``n`` on its exact shape (round
+        88, ``gasp_core.mpm.round_ground``): a sphere at ``c - R n``; a cylinder (its rest axis ``rb_ax[b]`` turned by
+        ``rb_R[b]`` to ``e``) on the line under its axis at the point's slice, ``c + (e . (x - c)) e - R n_perp``; ``on``
+        0 (the point itself) within ``CYL_LINE`` of standing on an end (warp_mpm's ``contact.round_point``)."""
+        c = self.rb_c[b]
+        u = n
+        on = 1
+        if self.rb_ax[b].norm() > 0.0:
+            e = self.rb_R[b] @ self.rb_ax[b]
+            ne = n.dot(e)
+            if ti.abs(ne) < CYL_LINE:   # level within rb_band (round_ground.level_band), tilted by the rest
+                sl = (x - c).dot(e)
+                c += sl * e - sl * (ne - ti.math.sign(ne) * ti.max(ti.abs(ne) - self.rb_band[b], 0.0)) * n
+                u = (n - ne * e) / ti.sqrt(1.0 - ne * ne)
+            else:
+                on = 0
+        out = x
+        if on != 0:
+            out = c - self.rb_rad[b] * u
+        return out, on
+
+    def set_round(self, shapes) -> None:
+        """The rigid bodies' exact round shapes (``gasp_core.mpm.round_ground.ground_shapes``, shape (n_bodies, 5))
+        and their cylinders' level bands (``level_band``)."""
+        shapes = np.asarray(shapes, np.float64)
+        self.rb_rad.from_numpy(shapes[:, 0])
+        self.rb_ax.from_numpy(shapes[:, 2:])
+        self.rb_band.from_numpy(level_band(shapes, float(self.dx[None])))
 
     @ti.func
     def depth_point(self, p, t, sliced: ti.template()):
@@ -64,9 +100,11 @@ class RigidLift:
                 n = ti.cast(self.plane_n[q], ti.f64)
                 x = ti.cast(self.x[p], ti.f64)
                 skin = ti.cast(kcs[2], ti.f64)
-                if self.rb_rad[b] > 0.0:   # round 88: a rigid sphere at its contact point (plane_point)
-                    x = self.rb_c[b] - self.rb_rad[b] * n
-                    skin = 0.0
+                if self.rb_rad[b] > 0.0:   # round 88: a round body at its exact shape's point (plane_point)
+                    xq, on = self.round_point(b, x, n)
+                    if on != 0:
+                        x = xq
+                        skin = 0.0
                 d = ti.cast(self.plane_row[q][0], ti.f64) + skin - n.dot(x)
                 if d > 0.0:
                     k = b * self.n_planes + q

@@ -23,6 +23,7 @@ import warp as wp
 
 from gasp_core.mpm.contact import DAMPING
 from gasp_core.mpm.rigid import RIGID_LEVER
+from gasp_core.mpm.round_ground import CYL_LINE
 from gasp_core.mpm.grid_tables import CM_FRICTION, COL_META
 
 from .colliders import build_collider_at
@@ -117,12 +118,41 @@ def build_contact_impulse(Ft):
     return contact_impulse
 
 
+@wp.func
+def round_point(c: wp.vec3d, R: wp.float64, ax: wp.vec3d, rot: wp.types.matrix((3, 3), wp.float64), x: wp.vec3d,
+                n: wp.vec3d, band: wp.float64):
+    # round 88 (gasp_core.mpm.round_ground): where a rigid body's point x meets a plane of normal n on the body's exact
+    # shape, and 1; (x, 0) where it has none (R 0) or a cylinder stands within CYL_LINE of an end (its points); a
+    # cylinder's line taken level while |n . e| is within band (round_ground.level_band), tilted by the rest beyond
+    out = x
+    on = int(0)
+    if R > wp.float64(0.0):
+        u = n
+        q = c
+        on = 1
+        if wp.length(ax) > wp.float64(0.0):   # a cylinder: the line under its axis, at the point's slice
+            e = rot * ax
+            ne = wp.dot(n, e)
+            if wp.abs(ne) < wp.float64(CYL_LINE):
+                sl = wp.dot(x - c, e)
+                q = c + sl * e - sl * (ne - wp.sign(ne) * wp.max(wp.abs(ne) - band, wp.float64(0.0))) * n
+                u = (n - ne * e) / wp.sqrt(wp.float64(1.0) - ne * ne)
+            else:
+                on = 0
+        if on != 0:
+            out = q - R * u
+    return out, on
+
+
 @functools.cache
 def build_plane_point(Ft):
     """``plane_point(ex, b, x, v, n, kcs, m) -> (x*, v*, kcs*, own)``, a Warp function of the scalar type ``Ft``:
     where a point of body ``b`` at ``x`` with velocity ``v``, contact row ``kcs`` and mass ``m`` meets a plane of
     normal ``n``. A rigid sphere (``ex.rb_rad[b]`` > 0, round 88, ``gasp_core.mpm.round_ground``) meets it at its
-    exact contact point ``x* = c - R n`` (``c = ex.rb_cx[b]``), moving at ``v + w x (x* - x)`` (``w = ex.rb_wx[b]``),
+    exact contact point ``x* = c - R n`` (``c = ex.rb_cx[b]``); a solid cylinder (its rest axis ``ex.rb_ax[b]``, turned
+    by ``ex.rb_rot[b]`` to ``e``) at the point of the line under its axis at the point's slice, ``c + (e . (x - c)) e -
+    R n_perp`` (``n_perp`` the normal across the axis; within ``round_ground.CYL_LINE`` of standing on an end, its
+    points); moving at ``v + w x (x* - x)`` (``w = ex.rb_wx[b]``),
     with its mass's share of the body's stiffness, ``kcs* = (w2 m, 2 DAMPING sqrt(w2) m, 0)`` (``w2 = ex.rb_w2 =
     (RIGID_OMEGA_DT / dt)^2``), its own (``own`` 1: ``contact_impulse`` does not scale it); every other point at
     itself with its row (``own`` 0). taichi_mpm's ``RigidLift.plane_point``."""
@@ -135,13 +165,15 @@ def build_plane_point(Ft):
         vq = v
         kq = kcs
         own = int(0)
-        R = ex.rb_rad[b]
-        if R > wp.float64(0.0):
-            nd = wp.vec3d(wp.float64(n[0]), wp.float64(n[1]), wp.float64(n[2]))
-            c = ex.rb_cx[b] - R * nd
+        xd = wp.vec3d(wp.float64(x[0]), wp.float64(x[1]), wp.float64(x[2]))
+        c = xd
+        on = int(0)
+        if ex.rb_rad[b] > wp.float64(0.0):   # the rigid bodies' arrays are read for a round body alone
+            c, on = round_point(ex.rb_cx[b], ex.rb_rad[b], ex.rb_ax[b], ex.rb_rot[b], xd,
+                                wp.vec3d(wp.float64(n[0]), wp.float64(n[1]), wp.float64(n[2])), ex.rb_band[b])
+        if on != 0:
             xq = vec3(Ft(c[0]), Ft(c[1]), Ft(c[2]))
-            r = c - wp.vec3d(wp.float64(x[0]), wp.float64(x[1]), wp.float64(x[2]))
-            dv = wp.cross(ex.rb_wx[b], r)
+            dv = wp.cross(ex.rb_wx[b], c - xd)
             vq = v + vec3(Ft(dv[0]), Ft(dv[1]), Ft(dv[2]))
             k = ex.rb_w2 * m
             kq = vec3(k, Ft(2.0 * DAMPING) * wp.sqrt(k * m), Ft(0.0))

@@ -21,6 +21,7 @@ import warp as wp
 
 from gasp_core.mpm.restitution import lift_off_rule
 
+from .contact import round_point
 from .precision import MODULE_OPTIONS, build_types
 from .rigid_friction import build_rigid_contact, build_rigid_pair
 
@@ -131,21 +132,21 @@ def build_rigid_update(Ft):
 
 @functools.cache
 def build_rigid_lift(Ft):
-    """``(rigid_depth, rigid_lift)`` for the scalar type ``Ft``: the position-level non-penetration of a resting rigid
-    body (``gasp_core.mpm.rigid_friction.settle_projection``, issue 53; taichi_mpm's ``Rigid.rigid_depth`` and
-    ``Rigid.rigid_lift``). ``rigid_depth`` (one thread a point) takes each rigid body's deepest penetration into each
-    plane of the particle contact and the penetration-weighted sum of its touching points; ``rigid_lift`` (one thread
-    a body) moves a body that is not bouncing out along the plane's normal to ``slop`` (m) of it, without speed, and
-    removes its centre's approach (through the centre: no spin), with Coulomb's friction of that impulse at the
-    touching points' penetration-weighted centre. It is long because both kernels are closures of the scalar type,
-    spelled as taichi_mpm's two methods."""
+    """``(rigid_depth, rigid_lift)`` for the scalar type ``Ft``: the position-level non-penetration of a resting rigid body
+    (``gasp_core.mpm.rigid_friction.settle_projection``, issue 53; taichi_mpm's ``Rigid.rigid_depth`` and ``Rigid.rigid_lift``).
+    ``rigid_depth`` (one thread a point) takes each rigid body's deepest penetration into each plane of the particle contact
+    (a round body's at its exact shape, round 88: ``contact.round_point``) and the penetration-weighted sum of its touching
+    points; ``rigid_lift`` (one thread a body) moves a body that is not bouncing out along the plane's normal to ``slop`` (m)
+    of it, without speed, and removes its centre's approach (through the centre: no spin), with Coulomb's friction of that
+    impulse at the touching points' penetration-weighted centre. Long: both kernels are closures of the scalar type."""
     vec3, vec4, mat33 = build_types(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def rigid_depth(x: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), rigid: wp.array(dtype=wp.int32),
                     p_contact: wp.array(dtype=vec3), planes: wp.array(dtype=vec3), plane_n: wp.array(dtype=vec3),
                     dmax: wp.array(dtype=wp.float64), dsum: wp.array(dtype=wp.vec4d), ndepth: wp.array(dtype=wp.int32),
-                    centre: wp.array(dtype=vec3d), rad: wp.array(dtype=wp.float64)):
+                    centre: wp.array(dtype=vec3d), rad: wp.array(dtype=wp.float64), ax: wp.array(dtype=vec3d),
+                    rot: wp.array(dtype=mat33d), band: wp.array(dtype=wp.float64)):
         p = wp.tid()
         b = body[p]
         kcs = p_contact[p]
@@ -157,9 +158,9 @@ def build_rigid_lift(Ft):
             nq = vec3d(wp.float64(plane_n[q][0]), wp.float64(plane_n[q][1]), wp.float64(plane_n[q][2]))
             xp = vec3d(wp.float64(x[p][0]), wp.float64(x[p][1]), wp.float64(x[p][2]))
             skin = wp.float64(kcs[2])
-            if rad[b] > wp.float64(0.0):   # round 88: a rigid sphere at its contact point (contact.plane_point)
-                xp = centre[b] - rad[b] * nq
-                skin = wp.float64(0.0)
+            if rad[b] > wp.float64(0.0):   # round 88: a round body at its exact shape's point (contact.plane_point)
+                xp, on = round_point(centre[b], rad[b], ax[b], rot[b], xp, nq, band[b])
+                skin = skin * wp.float64(1 - on)
             d = wp.float64(planes[q][0]) + skin - wp.dot(nq, xp)
             if d > wp.float64(0.0):
                 wp.atomic_max(dmax, b * n_pl + q, d)
@@ -361,7 +362,7 @@ class RigidBodies:
             self.rb_dsum = wp.zeros(nb * n_pl, dtype=wp.vec4d, device=d)
             out += [wp.launch(depth_k, dim=self.n_material, device=d, record_cmd=True, inputs=[
                         self.x, self.body, self.rb_rigid, self.p_contact, self.planes, self.plane_n, self.rb_dmax,
-                        self.rb_dsum, ex.rb_ndepth, self.rb_c, ex.rb_rad]),
+                        self.rb_dsum, ex.rb_ndepth, self.rb_c, ex.rb_rad, ex.rb_ax, self.rb_R, ex.rb_band]),
                     wp.launch(lift_k, dim=nb, device=d, record_cmd=True, inputs=[
                         self.rb_rigid, self.rb_M, self.rb_I0, self.rb_c, self.rb_R, self.rb_V, self.rb_w, dxa, nb,
                         self.planes, self.plane_n, self.rb_dmax, self.rb_dsum, ex.rb_e, ex.rb_vin, ex.plane_e,
