@@ -128,7 +128,7 @@ def test_a_cylinders_shape_is_found_and_its_axis_fitted(tilt, gaussians):
     assert shape[1] == pytest.approx(0.075, rel=0.05) and shape[0] == pytest.approx(R, rel=0.02)
     axis = rot @ [0.0, 1.0, 0.0]
     assert abs(abs(shape[2:] @ axis) - 1.0) < 1e-6   # within 0.08 degrees of the true axis
-    band = rg.level_band(rg.ground_shapes(_setup(x, p_vol, n)), 0.0125)[0]
+    band = rg.level_band(rg.ground_shapes(_setup(x, p_vol, n)), 0.05 * 0.0125)[0]
     assert band == pytest.approx(0.05 * 0.0125 / (2 * shape[1]))
 
 

@@ -126,17 +126,16 @@ def fit_axis(X: np.ndarray, e0: np.ndarray) -> np.ndarray:
     return axis(least_squares(res, [0.0, 0.0, r0]).x)
 
 
-def level_band(shapes: np.ndarray, dx: float) -> np.ndarray:
+def level_band(shapes: np.ndarray, slop: float) -> np.ndarray:
     """Per body the band on ``|n . e|`` within which a cylinder's line is taken level with the plane (shape
-    (n_bodies,), float64; 0 for the others): ``RIGID_SLOP dx / (2 h)``, its ends within the rigid contact's slop of each
-    other (``gasp_core.mpm.rigid.RIGID_SLOP``, the depth a resting body may keep). Beyond it the line tilts by the rest
+    (n_bodies,), float64; 0 for the others): ``slop / (2 h)``, its ends within the rigid contact's slop (m: the
+    engines give ``gasp_core.mpm.rigid.RIGID_SLOP dx``, the depth a resting body may keep) of each other. Beyond it the line tilts by the rest
     (continuous: a cylinder landing on an end rests on it). Its axis, fitted to its Gaussians (:func:`fit_axis`), is
     uncertain by their sampling (0.01-0.07 degrees for 2,400-4,800 random Gaussians): taken exactly, a 10 cm cylinder
     lying on a slope rested on one end's rim (0.17 mm higher at the other) and its slipping spin-up fell 6.1 % short."""
-    from gasp_core.mpm.rigid import RIGID_SLOP
     shapes = np.asarray(shapes, np.float64)
     h = shapes[:, 1]
-    return np.where(h > 0.0, RIGID_SLOP * float(dx) / (2.0 * np.where(h > 0.0, h, 1.0)), 0.0)
+    return np.where(h > 0.0, float(slop) / (2.0 * np.where(h > 0.0, h, 1.0)), 0.0)
 
 
 def ground_radius(setup) -> np.ndarray:

@@ -86,7 +86,7 @@ class RigidLift:
         shapes = np.asarray(shapes, np.float64)
         self.rb_rad.from_numpy(shapes[:, 0])
         self.rb_ax.from_numpy(shapes[:, 2:])
-        self.rb_band.from_numpy(level_band(shapes, float(self.dx[None])))
+        self.rb_band.from_numpy(level_band(shapes, RIGID_SLOP * float(self.dx[None])))
 
     @ti.func
     def depth_point(self, p, t, sliced: ti.template()):

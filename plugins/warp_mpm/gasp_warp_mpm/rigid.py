@@ -138,7 +138,7 @@ def build_rigid_lift(Ft):
     (a round body's at its exact shape, round 88: ``contact.round_point``) and the penetration-weighted sum of its touching
     points; ``rigid_lift`` (one thread a body) moves a body that is not bouncing out along the plane's normal to ``slop`` (m)
     of it, without speed, and removes its centre's approach (through the centre: no spin), with Coulomb's friction of that
-    impulse at the touching points' penetration-weighted centre. Long: both kernels are closures of the scalar type."""
+    impulse at the touching points' penetration-weighted centre. It is long because both kernels are closures of Ft."""
     vec3, vec4, mat33 = build_types(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)

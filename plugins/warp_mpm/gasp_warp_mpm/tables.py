@@ -57,11 +57,11 @@ class ExtraTables:
         ex.rb_xf = wp.zeros(len(setup.materials), dtype=vec3d, device=self.device)
         ex.rb_wx = self.rb_w if getattr(self, "any_rigid", False) else wp.zeros(1, dtype=vec3d, device=self.device)
         from gasp_core.mpm.round_ground import ground_shapes, level_band   # round 88: the rigid spheres' exact contact
-        from gasp_core.mpm.rigid import RIGID_OMEGA_DT
+        from gasp_core.mpm.rigid import RIGID_OMEGA_DT, RIGID_SLOP
         shapes = ground_shapes(setup)
         ex.rb_rad = wp.array(shapes[:, 0], dtype=wp.float64, device=self.device)
         ex.rb_ax = wp.array(shapes[:, 2:], dtype=vec3d, device=self.device)
-        ex.rb_band = wp.array(level_band(shapes, float(self.dx)), dtype=wp.float64, device=self.device)
+        ex.rb_band = wp.array(level_band(shapes, RIGID_SLOP * float(self.dx)), dtype=wp.float64, device=self.device)
         ex.rb_rot = self.rb_R if getattr(self, "any_rigid", False) else wp.zeros(1, dtype=wp.types.matrix((3, 3), wp.float64),
                                                                                   device=self.device)
         ex.rb_w2 = Ft((RIGID_OMEGA_DT / float(self.dt)) ** 2)
