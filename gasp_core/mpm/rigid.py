@@ -23,7 +23,7 @@ import numpy as np
 
 from gasp_core.mpm.contact import DAMPING, SKIN, rigid_bodies
 from gasp_core.mpm.materials import P_LAM, P_MU
-from gasp_core.mpm.round_ground import ground_radius, ground_shapes, shape_depth   # noqa: F401 (re-exported)
+from gasp_core.mpm.round_ground import ground_shapes, shape_depth
 
 #: Elastic modulus (Pa) a rigid body shows the step and contact rules of the grid engines
 #: (:func:`step_view`): small enough that neither its wave speed nor its contact frequency sets a step.
