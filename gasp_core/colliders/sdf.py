@@ -209,6 +209,57 @@ def _carved(points: np.ndarray, origin: np.ndarray, shape, h: float) -> np.ndarr
     return free
 
 
+def padded(collider: Collider, reach: float) -> Collider:
+    """``collider`` with its distance grid grown so that it holds the field out to ``reach`` (m) beyond the collider's
+    own extent, not only :data:`SDF_PAD` samples (round 89: a rigid sphere or cylinder reads the field at its centre or
+    axis, up to its radius from the surface it touches: ``gasp_core.mpm.round_ground.collider_reach``).
+
+    The new samples lie outside the old grid, so outside the collider: a mesh's (``triangles``) take the exact distance
+    to its triangles (``trimesh.proximity.closest_point``); a field from Gaussians takes its own rule, the Euclidean
+    distance to its occupied samples less half a sample (:func:`collider_from_splats`), occupancy being ``phi < 0``.
+    The old samples keep their values; the gradient is taken again over the whole grid (central differences).
+
+    Parameters
+    ----------
+    collider : Collider
+    reach : float
+        Metres beyond the collider's extent the field must hold (at most the padding :data:`MAX_SDF_SAMPLES` allows).
+
+    Returns
+    -------
+    Collider
+        ``collider`` itself where its padding already reaches or no sample can be added within
+        :data:`MAX_SDF_SAMPLES`; else a copy on the larger grid (``origin`` moved out by the added samples).
+    """
+    import dataclasses
+    h = float(collider.h)
+    shape = np.asarray(collider.phi.shape, np.int64)
+    add = int(np.ceil(float(reach) / h)) + 2 - SDF_PAD   # two more samples: the trilinear cell and its gradient
+    while add > 0 and np.prod((shape + 2 * add).astype(np.float64)) > MAX_SDF_SAMPLES:
+        add //= 2
+    if add <= 0:
+        return collider
+    new = tuple(int(s) for s in shape + 2 * add)
+    origin = np.asarray(collider.origin, np.float64) - add * h
+    old = tuple(slice(add, add + int(s)) for s in shape)
+    fresh = np.ones(new, bool)
+    fresh[old] = False
+    phi = np.empty(new)
+    phi[old] = collider.phi
+    if collider.triangles is not None:
+        import trimesh
+        tris = np.asarray(collider.triangles, np.float64).reshape(-1, 3, 3)
+        mesh = trimesh.Trimesh(**trimesh.triangles.to_kwargs(tris))
+        idx = np.argwhere(fresh)
+        phi[fresh] = trimesh.proximity.closest_point(mesh, origin + idx * h)[1]
+    else:
+        occ = np.zeros(new, bool)
+        occ[old] = collider.phi < 0.0
+        phi[fresh] = (ndimage.distance_transform_edt(~occ) * h - 0.5 * h)[fresh]
+    grad = np.stack(np.gradient(phi, h), axis=-1)
+    return dataclasses.replace(collider, phi=phi, grad=grad, origin=origin)
+
+
 def box_collider(half_extents, h: float, name: str = "box", **kw) -> Collider:
     """A box collider, exact signed distance (no mesh library needed).
 

@@ -126,6 +126,11 @@ class GridTables:
 def grid_tables(setup) -> GridTables:
     """Pack ``setup.colliders``, ``setup.forces`` and ``setup.impulses`` for grid kernels (see :class:`GridTables`)."""
     cols = list(getattr(setup, "colliders", []) or [])
+    if cols:   # round 89: the field held out to the round rigid bodies' radius (their centres read it)
+        from gasp_core.colliders.sdf import padded
+        from gasp_core.mpm.round_ground import collider_reach
+        reach = collider_reach(setup)
+        cols = [padded(c, reach) for c in cols] if reach > 0.0 else cols
     forces = list(getattr(setup, "forces", []) or [])
     imps = list(getattr(setup, "impulses", []) or [])
     sdf, grad, meta = [], [], []
@@ -188,6 +193,11 @@ def frame_table(setup, t_start: float, n_substeps: int, dt: float) -> np.ndarray
     impulse its :func:`impulse_weight` for ``[t, t + dt)``.
     """
     cols = list(getattr(setup, "colliders", []) or [])
+    if cols:   # round 89: the field held out to the round rigid bodies' radius (their centres read it)
+        from gasp_core.colliders.sdf import padded
+        from gasp_core.mpm.round_ground import collider_reach
+        reach = collider_reach(setup)
+        cols = [padded(c, reach) for c in cols] if reach > 0.0 else cols
     imps = list(getattr(setup, "impulses", []) or [])
     w = 1 + COL_POSE * len(cols) + len(imps)
     out = np.zeros((n_substeps, w))

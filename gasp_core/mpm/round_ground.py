@@ -40,6 +40,10 @@ from gasp_core.mpm.contact import rigid_bodies
 #: 1: a rigid sphere or solid cylinder meets the planes on its exact shape (this module); 0: the broken variant, round
 #: 87's contact on its points (a polyhedron: the catch of ``tests/test_roll_sizes.py``).
 ROUND_GROUND = 1
+#: 1: a rigid sphere or solid cylinder meets the ``[[collider]]``s on its exact shape too (round 89: each point reads the
+#: collider's field at the centre or at its slice of the axis, :func:`collider_reach`); 0: the broken variant, round
+#: 88's collider contact on its points (the catch of ``tests/test_ramp_collider.py``'s ball).
+ROUND_COLLIDER = 1
 #: A cylinder meets a plane on the line under its axis while ``|n . e|`` (its axis against the plane's normal) is under
 #: this (8 degrees from standing on an end); nearer to standing it rests on its end's points, a face.
 CYL_LINE = 0.99
@@ -153,3 +157,19 @@ def shape_depth(centre, rot, shape, normal, offset: float) -> float:
     e = np.asarray(rot, np.float64) @ e0
     ne = float(n @ e)
     return float(offset - n @ np.asarray(centre, np.float64) + R * np.sqrt(max(1.0 - ne * ne, 0.0)) + h * abs(ne))
+
+
+def collider_reach(setup) -> float:
+    """How far (m) beyond a ``[[collider]]``'s extent its distance field must hold for the round bodies of ``setup`` to
+    read it at their centres (a sphere) or axes (a cylinder): the largest radius of :func:`ground_shapes`, 0.0 without
+    a round body or without :data:`ROUND_COLLIDER` (round 89).
+
+    A sphere of centre ``c`` and radius ``R`` meets a closed surface at the depth ``R - d(c)``, ``d`` the distance to the
+    surface (its field), along the field's gradient at ``c``: exact for any surface, not only planes, as long as ``d``
+    is read at ``c``. A sphere that touches has ``d(c) <= R``, so a field held ``R`` beyond the surface is read wherever
+    it matters (``gasp_core.mpm.grid_tables.grid_tables`` pads the colliders with :func:`gasp_core.colliders.sdf.padded`;
+    each plugin's ``round_collider`` reads it). Where the field is not held (a grid too large to pad), each point falls
+    back on its own contact, round 88's."""
+    if not ROUND_COLLIDER or not getattr(setup, "colliders", None) or getattr(setup, "materials", None) is None:
+        return 0.0   # no collider, or tables packed for the colliders alone (no bodies)
+    return float(ground_shapes(setup)[:, 0].max(initial=0.0))

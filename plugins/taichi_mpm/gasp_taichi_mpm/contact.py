@@ -134,20 +134,18 @@ class Contact:
                     jbest = jq
         if ti.static(self.n_colc > 0):
             base = self.ex_step[None] * self.ex_width
-            kcs = self.p_contact[p]
-            for c in range(self.n_colc):
-                phi, n, vc = self.collider_at(self.x[p], c, base, kcs[2])
-                depth = kcs[2] - phi
-                if depth > 0.0:
-                    jq = self.contact_impulse(p, 1.0, (self.v[p] - vc).dot(n), n, depth, kcs, self.x[p], 0)
+            for c in range(self.n_colc):   # round 89: a rigid sphere or cylinder on its shape (rigid_lift.py)
+                depth, n, vc, xq, vq, kcs, own = self.collider_point(p, c, base)
+                if depth > 0.0 and (kcs[0] > 0.0 or own == 0):
+                    jq = self.contact_impulse(p, 1.0, (vq - vc).dot(n), n, depth, kcs, xq, own)
                     if jq > 0.0:
                         mu = self.ex_meta[c * COL_META + CM_FRICTION]
                         imp += jq * n
                         budget += mu * jq
-                        self.add_twist(p, self.x[p], mu, jq, n, vc)
+                        self.add_twist(p, xq, mu, jq, n, vc)
                         fn += (mu * jq) * n
                         fv += (mu * jq) * vc
-                        self.add_contact(p, self.x[p], 1 + c, jq, n, vc)
+                        self.add_contact(p, xq, 1 + c, jq, n, vc)
                         if jq > jbest:
                             sup = 1 + c
                             jbest = jq

@@ -17,11 +17,20 @@ import taichi as ti
 
 from gasp_core.mpm.contact import DAMPING
 from gasp_core.mpm.rigid import RIGID_OMEGA_DT, RIGID_SLOP
+from gasp_core.mpm.grid_tables import COL_POSE, FT_POSES, PO_W
+import gasp_core.mpm.round_ground as round_ground
 from gasp_core.mpm.round_ground import CYL_LINE, level_band
+
+#: A signed distance at or above this (m) is off the field's grid (``colliders.field_at`` gives 1e30 there).
+OFF_GRID = 1.0e29
 
 
 class RigidLift:
     """The two kernels of the resting bodies' non-penetration."""
+
+    #: Round 89: a round body meets the colliders on its exact shape too (``round_ground.ROUND_COLLIDER``, read when
+    #: the kernels compile: :meth:`set_round`).
+    round_col = False
 
     @ti.func
     def is_sphere(self, p) -> bool:
@@ -80,10 +89,76 @@ class RigidLift:
             out = c - self.rb_rad[b] * u
         return out, on
 
+    @ti.func
+    def round_collider(self, p, c, base):
+        """``(on, depth, n, v_c, x*, v*, kcs*)``: where point p of a round rigid body meets collider c (its pose at the
+        time-table row ``base``) on the body's exact shape (round 89, ``gasp_core.mpm.round_ground.collider_reach``):
+        the field read at the centre (a sphere) or at the point's slice of the axis ``y`` (a cylinder), the depth ``-
+        (phi(y) + n . (x* - y))`` (m), the field's unit gradient ``n`` there, the collider's velocity at the contact
+        point ``x*`` (:meth:`round_point`), the point's velocity moved there and its mass's share of the body's stiffness
+        (as :meth:`plane_point`); ``on`` 0 where it keeps its own contact (the field off its grid at ``y``, a cylinder
+        near standing on an end). warp_mpm's ``round_collider.build_round_collider``."""
+        b = self.body[p]
+        x = self.x[p]
+        v = self.v[p]
+        xd = ti.cast(x, ti.f64)
+        y = self.rb_c[b]
+        if self.rb_ax[b].norm() > 0.0:   # a cylinder: its slice of the axis
+            e = self.rb_R[b] @ self.rb_ax[b]
+            y += (xd - y).dot(e) * e
+        R = self.rb_rad[b]
+        yf = ti.cast(y, self.real)
+        phi, n, vcy = self.collider_at(yf, c, base, ti.cast(R, self.real))
+        on = 0
+        depth = ti.cast(0.0, self.real)
+        xq, vq, vc = x, v, vcy
+        kq = ti.Vector.zero(self.real, 3)
+        if phi < OFF_GRID:
+            on = 1   # held: the exact shape decides, touching or not
+            if phi <= R:
+                nd = ti.cast(n, ti.f64)
+                q, at = self.round_point(b, xd, nd)
+                on = at
+                if at != 0:
+                    depth = ti.cast(-(ti.cast(phi, ti.f64) + nd.dot(q - y)), self.real)
+                    xq = ti.cast(q, self.real)
+                    vq = v + ti.cast(self.rb_w[b].cross(q - xd), self.real)
+                    p0 = base + FT_POSES + COL_POSE * c
+                    om = ti.Vector([self.ex_tab[p0 + PO_W], self.ex_tab[p0 + PO_W + 1], self.ex_tab[p0 + PO_W + 2]])
+                    vc = vcy + om.cross(xq - yf)
+                    m = self.p_mass[p]
+                    k = (RIGID_OMEGA_DT / self.dt[None]) ** 2 * m
+                    kq = ti.Vector([k, 2.0 * DAMPING * ti.sqrt(k * m), 0.0], self.real)
+            else:
+                depth = ti.cast(R, self.real) - phi   # apart: no contact
+        return on, depth, n, vc, xq, vq, kq
+
+    @ti.func
+    def collider_point(self, p, c, base):
+        """``(depth, n, v_c, x*, v*, kcs*, own)`` of point p against collider c: a round rigid body's on its exact shape
+        (:meth:`round_collider`, ``own`` 1), every other point at itself with ``p_contact[p]``, ``depth = skin - phi``
+        (``contact.point_contact``)."""
+        kcs = self.p_contact[p]
+        on = 0
+        depth = ti.cast(0.0, self.real)
+        n = ti.Vector.zero(self.real, 3)
+        vc = ti.Vector.zero(self.real, 3)
+        xq, vq, kq = self.x[p], self.v[p], kcs
+        if ti.static(self.round_col):
+            if self.is_sphere(p):
+                on, depth, n, vc, xq, vq, kq = self.round_collider(p, c, base)
+        if on == 0:
+            phi, n0, vc0 = self.collider_at(self.x[p], c, base, kcs[2])
+            depth = kcs[2] - phi
+            n, vc, xq, vq, kq = n0, vc0, self.x[p], self.v[p], kcs
+        return depth, n, vc, xq, vq, kq, on
+
     def set_round(self, shapes) -> None:
         """The rigid bodies' exact round shapes (``gasp_core.mpm.round_ground.ground_shapes``, shape (n_bodies, 5))
-        and their cylinders' level bands (``level_band``)."""
+        and their cylinders' level bands (``level_band``); whether they meet the colliders on them too
+        (:data:`gasp_core.mpm.round_ground.ROUND_COLLIDER`, :meth:`round_collider`)."""
         shapes = np.asarray(shapes, np.float64)
+        self.round_col = bool(round_ground.ROUND_COLLIDER) and bool(np.any(shapes[:, 0] > 0.0))
         self.rb_rad.from_numpy(shapes[:, 0])
         self.rb_ax.from_numpy(shapes[:, 2:])
         self.rb_band.from_numpy(level_band(shapes, RIGID_SLOP * float(self.dx[None])))

@@ -189,10 +189,10 @@ def build_moments(Ft):
         if colc != 0:   # support 1 + cc: collider cc
             base = ex.step[0] * ex.width
             for cc in range(ex.n_col):
-                jq, n, vc = collider_contact(ex, base, cc, xp, vp, kcs, dt, b, 0)
+                jq, n, vc, xq = collider_contact(ex, base, cc, xp, vp, kcs, dt, b, 0, p_mass[p])
                 if jq > Ft(0.0):
-                    add_contact(jsums, b * n_sup + 1 + cc, f64(jq), r, v64(f64(n[0]), f64(n[1]), f64(n[2])),
-                                v64(f64(vc[0]), f64(vc[1]), f64(vc[2])), m)
+                    add_contact(jsums, b * n_sup + 1 + cc, f64(jq), v64(f64(xq[0]), f64(xq[1]), f64(xq[2])),
+                                v64(f64(n[0]), f64(n[1]), f64(n[2])), v64(f64(vc[0]), f64(vc[1]), f64(vc[2])), m)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def contact_shift(sums: wp.array2d(dtype=f64), shift: wp.array2d(dtype=f64)):

@@ -23,12 +23,12 @@ import warp as wp
 
 from gasp_core.mpm.contact import DAMPING
 from gasp_core.mpm.rigid import RIGID_LEVER
-from gasp_core.mpm.round_ground import CYL_LINE
 from gasp_core.mpm.grid_tables import CM_FRICTION, COL_META
 
 from .colliders import build_collider_at
 from .forces import build_extras_struct
 from .precision import build_types
+from .round_collider import build_round_collider, round_point
 
 
 @functools.cache
@@ -118,32 +118,6 @@ def build_contact_impulse(Ft):
     return contact_impulse
 
 
-@wp.func
-def round_point(c: wp.vec3d, R: wp.float64, ax: wp.vec3d, rot: wp.types.matrix((3, 3), wp.float64), x: wp.vec3d,
-                n: wp.vec3d, band: wp.float64):
-    # round 88 (gasp_core.mpm.round_ground): where a rigid body's point x meets a plane of normal n on the body's exact
-    # shape, and 1; (x, 0) where it has none (R 0) or a cylinder stands within CYL_LINE of an end (its points); a
-    # cylinder's line taken level while |n . e| is within band (round_ground.level_band), tilted by the rest beyond
-    out = x
-    on = int(0)
-    if R > wp.float64(0.0):
-        u = n
-        q = c
-        on = 1
-        if wp.length(ax) > wp.float64(0.0):   # a cylinder: the line under its axis, at the point's slice
-            e = rot * ax
-            ne = wp.dot(n, e)
-            if wp.abs(ne) < wp.float64(CYL_LINE):
-                sl = wp.dot(x - c, e)
-                q = c + sl * e - sl * (ne - wp.sign(ne) * wp.max(wp.abs(ne) - band, wp.float64(0.0))) * n
-                u = (n - ne * e) / wp.sqrt(wp.float64(1.0) - ne * ne)
-            else:
-                on = 0
-        if on != 0:
-            out = q - R * u
-    return out, on
-
-
 @functools.cache
 def build_plane_point(Ft):
     """``plane_point(ex, b, x, v, n, kcs, m) -> (x*, v*, kcs*, own)``, a Warp function of the scalar type ``Ft``:
@@ -228,8 +202,10 @@ def build_collider_contact(Ft):
     contact against the ``[[collider]]``s' signed distances (``gasp_core.mpm.contact.surface_impulse``).
     It is long because the three are closures of the scalar type, built together.
 
-    - ``collider_contact(ex, base, cc, x, v, kcs, dt, b, mark) -> (j_n, n, v_c)``: collider ``cc``'s normal impulse
-      on a point of body ``b`` (``build_contact_impulse``), ``depth = skin - phi``, along its outward normal ``n``;
+    - ``collider_contact(ex, base, cc, x, v, kcs, dt, b, mark, m) -> (j_n, n, v_c, x*)``: collider ``cc``'s normal
+      impulse on a point of body ``b`` of mass ``m`` (``build_contact_impulse``), ``depth = skin - phi``, along its
+      outward normal ``n``, acting at ``x*``: the point itself, or a rigid sphere's or cylinder's contact point on its
+      exact shape (round 89, ``round_collider.build_round_collider``; ``ex.rb_col``);
     - ``point_contact(...) -> (impulse, budget, budget n, budget v_c, support)``: the planes' and the colliders'
       impulses on a point summed, its friction budget, the budget-weighted normal and collider velocity (for the
       nodes' friction) and the support that pushes it most (0: the grounds, 1 + cc: collider cc, then the walls'
@@ -241,16 +217,32 @@ def build_collider_contact(Ft):
     Extras = build_extras_struct(Ft)
     collider_at = build_collider_at(Ft)
     contact_impulse, add_twist = build_contact_impulse(Ft), build_add_twist(Ft)
-    plane_point = build_plane_point(Ft)
+    plane_point, round_collider = build_plane_point(Ft), build_round_collider(Ft)
 
     @wp.func
-    def collider_contact(ex: Extras, base: int, cc: int, x: vec3, v: vec3, kcs: vec3, dt: Ft, b: int, mark: int):
-        phi, n, vc = collider_at(x, cc, base, ex, kcs[2])
+    def collider_contact(ex: Extras, base: int, cc: int, x: vec3, v: vec3, kcs: vec3, dt: Ft, b: int, mark: int,
+                         pm: Ft):
+        on = int(0)
+        depth = Ft(0.0)
+        n = vec3(Ft(0.0))
+        vc = vec3(Ft(0.0))
+        xq = x
+        vq = v
+        kq = kcs
+        if ex.rb_col != 0 and ex.rb_rad[b] > wp.float64(0.0):   # round 89: a rigid sphere or cylinder on its shape
+            on, depth, n, vc, xq, vq, kq = round_collider(ex, base, cc, x, v, pm, b)
+        if on == 0:
+            phi, n0, vc0 = collider_at(x, cc, base, ex, kcs[2])
+            depth = kcs[2] - phi
+            n = n0
+            vc = vc0
+            xq = x
+            vq = v
+            kq = kcs
         jq = Ft(0.0)
-        depth = kcs[2] - phi
-        if depth > Ft(0.0):
-            jq = contact_impulse(ex, b, Ft(1.0), wp.dot(v - vc, n), mark, n, depth, kcs, dt, x, 0)
-        return jq, n, vc
+        if depth > Ft(0.0) and (kq[0] > Ft(0.0) or on == 0):
+            jq = contact_impulse(ex, b, Ft(1.0), wp.dot(vq - vc, n), mark, n, depth, kq, dt, xq, on)
+        return jq, n, vc, xq
 
     @wp.func
     def point_contact(planes: wp.array(dtype=vec3), plane_n: wp.array(dtype=vec3), kcs: vec3, x: vec3, v: vec3,
@@ -281,12 +273,12 @@ def build_collider_contact(Ft):
         if colc != 0:
             base = ex.step[0] * ex.width
             for cc in range(ex.n_col):
-                jq, n, vc = collider_contact(ex, base, cc, x, v, kcs, dt, b, 1)
+                jq, n, vc, xq = collider_contact(ex, base, cc, x, v, kcs, dt, b, 1, pm)
                 if jq > Ft(0.0):
                     mu = ex.meta[cc * COL_META + CM_FRICTION]
                     imp = imp + jq * n
                     bud = bud + mu * jq
-                    add_twist(ex, b, x, mu, jq, n, vc)
+                    add_twist(ex, b, xq, mu, jq, n, vc)
                     fn = fn + (mu * jq) * n
                     fv = fv + (mu * jq) * vc
                     if jq > jbest:

@@ -69,6 +69,7 @@ def build_extras_struct(Ft):
         rb_ax: wp.array(dtype=wp.types.vector(3, wp.float64))   # round 88: a cylinder's axis at rest (0: a sphere)
         rb_band: wp.array(dtype=wp.float64)   # round 88: a cylinder's level band on |n . e| (round_ground.level_band)
         rb_rot: wp.array(dtype=wp.types.matrix((3, 3), wp.float64))   # the rigid bodies' rotations (rigid.py's rb_R)
+        rb_col: int   # round 89: 1, a round body meets the colliders on its shape (round_ground.ROUND_COLLIDER)
         rb_w2: Ft   # round 88: (RIGID_OMEGA_DT / dt)^2, 1/s^2: a sphere's stiffness per kg (contact.build_plane_point)
         plane_e: wp.array(dtype=Ft)
         v_rest: Ft   # m/s: a rebound below it is none

@@ -21,7 +21,7 @@ import warp as wp
 
 from gasp_core.mpm.restitution import lift_off_rule
 
-from .contact import round_point
+from .round_collider import round_point
 from .precision import MODULE_OPTIONS, build_types
 from .rigid_friction import build_rigid_contact, build_rigid_pair
 
@@ -135,7 +135,7 @@ def build_rigid_lift(Ft):
     """``(rigid_depth, rigid_lift)`` for the scalar type ``Ft``: the position-level non-penetration of a resting rigid body
     (``gasp_core.mpm.rigid_friction.settle_projection``, issue 53; taichi_mpm's ``Rigid.rigid_depth`` and ``Rigid.rigid_lift``).
     ``rigid_depth`` (one thread a point) takes each rigid body's deepest penetration into each plane of the particle contact
-    (a round body's at its exact shape, round 88: ``contact.round_point``) and the penetration-weighted sum of its touching
+    (a round body's at its exact shape, round 88: ``round_collider.round_point``) and the penetration-weighted sum of its touching
     points; ``rigid_lift`` (one thread a body) moves a body that is not bouncing out along the plane's normal to ``slop`` (m)
     of it, without speed, and removes its centre's approach (through the centre: no spin), with Coulomb's friction of that
     impulse at the touching points' penetration-weighted centre. It is long because both kernels are closures of Ft."""

@@ -56,7 +56,7 @@ class ExtraTables:
         ex.rb_flat = wp.array(np.ones(len(setup.materials)), dtype=wp.float64, device=self.device)
         ex.rb_xf = wp.zeros(len(setup.materials), dtype=vec3d, device=self.device)
         ex.rb_wx = self.rb_w if getattr(self, "any_rigid", False) else wp.zeros(1, dtype=vec3d, device=self.device)
-        from gasp_core.mpm.round_ground import ground_shapes, level_band   # round 88: the rigid spheres' exact contact
+        from gasp_core.mpm.round_ground import ROUND_COLLIDER, ground_shapes, level_band   # round 88: the rigid spheres' exact contact
         from gasp_core.mpm.rigid import RIGID_OMEGA_DT, RIGID_SLOP
         shapes = ground_shapes(setup)
         ex.rb_rad = wp.array(shapes[:, 0], dtype=wp.float64, device=self.device)
@@ -65,6 +65,7 @@ class ExtraTables:
         ex.rb_rot = self.rb_R if getattr(self, "any_rigid", False) else wp.zeros(1, dtype=wp.types.matrix((3, 3), wp.float64),
                                                                                   device=self.device)
         ex.rb_w2 = Ft((RIGID_OMEGA_DT / float(self.dt)) ** 2)
+        ex.rb_col = int(ROUND_COLLIDER)   # round 89: and the colliders (round_collider.py)
         ex.plane_e = arr(plane_table(setup, n_planes).astype(np_t) if n_planes else np.ones(1, np_t), Ft)
         ex.v_rest = Ft(rest_speed(setup))
         self._ex = ex

@@ -117,10 +117,10 @@ def build_row_sums(Ft):
             if colc != 0:
                 base = ex.step[0] * ex.width
                 for cc in range(ex.n_col):
-                    jq, n, vc = collider_contact(ex, base, cc, xp, vp, kcs, dt, b, 0)
+                    jq, n, vc, xq = collider_contact(ex, base, cc, xp, vp, kcs, dt, b, 0, p_mass[p])
                     if jq > Ft(0.0):
-                        acc_contact(pjs, blk, b * n_sup + 1 + cc, f64(jq), r, v64(f64(n[0]), f64(n[1]), f64(n[2])),
-                                    v64(f64(vc[0]), f64(vc[1]), f64(vc[2])), m)
+                        acc_contact(pjs, blk, b * n_sup + 1 + cc, f64(jq), v64(f64(xq[0]), f64(xq[1]), f64(xq[2])),
+                                    v64(f64(n[0]), f64(n[1]), f64(n[2])), v64(f64(vc[0]), f64(vc[1]), f64(vc[2])), m)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def friction_blocks(grid_fbody: wp.array(dtype=wp.int32), fr_dv: wp.array(dtype=vec4), fr_fb: wp.array(dtype=Ft),
