@@ -23,6 +23,7 @@ import numpy as np
 
 from gasp_core.mpm.contact import DAMPING, SKIN, rigid_bodies
 from gasp_core.mpm.materials import P_LAM, P_MU
+import gasp_core.mpm.round_ground as round_ground
 from gasp_core.mpm.round_ground import ground_shapes, shape_depth
 
 #: Elastic modulus (Pa) a rigid body shows the step and contact rules of the grid engines
@@ -211,13 +212,15 @@ def lift_setup(setup):
         return setup
     view = step_view(setup)
     normals, rows = contact_planes(view)
-    if not len(normals):
+    cols = list(getattr(setup, "colliders", None) or []) if round_ground.ROUND_COLLIDER else []
+    if not len(normals) and not cols:
         return setup
     skin = rigid_contact(setup, 1.0, contact_coefficients(view))[:, 2]
     x = np.array(setup.x, dtype=np.float64)
     body, vol = np.asarray(setup.body_id), np.asarray(setup.p_vol, np.float64)
     moved, touching = False, touch_rows(setup)
     shapes, m = ground_shapes(setup), np.asarray(setup.p_mass, np.float64)
+    band = round_ground.level_band(shapes, RIGID_SLOP * float(setup.dx))   # as the engines' round_point reads it
     for b in np.flatnonzero(rigid):
         sel = (body == b) & (vol > 0.0) & touching
         if not sel.any():
@@ -226,7 +229,13 @@ def lift_setup(setup):
             depth = float((row[0] + skin[sel] - x[sel] @ n).max())
             if shapes[b, 0] > 0.0:   # round 88: its exact sphere's or cylinder's (round_ground), at its rest pose
                 c = (m[body == b, None] * x[body == b]).sum(0) / m[body == b].sum()
-                depth = shape_depth(c, np.eye(3), shapes[b], n, row[0])
+                depth = shape_depth(c, np.eye(3), shapes[b], n, row[0], band[b])
+            if depth > 0.0:
+                x[body == b] += depth * n
+                moved = True
+        for col in cols if shapes[b, 0] > 0.0 else ():   # round 89: and out of the colliders, on its exact shape
+            c = (m[body == b, None] * x[body == b]).sum(0) / m[body == b].sum()
+            depth, n = round_ground.collider_depth(col, c, np.eye(3), shapes[b], band[b])
             if depth > 0.0:
                 x[body == b] += depth * n
                 moved = True

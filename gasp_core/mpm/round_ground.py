@@ -18,8 +18,9 @@ All its points then take normal impulses in proportion to their masses, whose su
 the body's whole mass) and whose moment about the mass centre is ``sum m_p (x_p - c) x n j / M = 0``. The friction
 acts on the body as one at ``x*`` (each plugin's slide brake, which reads the budget's points). The position-level
 non-penetration (``rigid_depth``, ``settle_projection``) and the start's lift (``gasp_core.mpm.rigid.lift_setup``)
-read the same depth. The ``[[collider]]`` contact keeps the points and their rows (``rigid_contact``): a ball on a
-mesh ramp still rolls on its Gaussians (round 88 leaves it; ``tests/test_ramp_collider.py``'s ball meets its check).
+read the same depth. Round 89: the ``[[collider]]`` contact too, with the collider's field read at the centre (a
+cylinder: at the point's slice of its axis), the depth ``R - phi(c)`` along its gradient there: exact for any surface,
+not only a plane (:func:`collider_reach`; ``docs/rigid.md`` "Round 89").
 
 Which bodies: a rigid body whose points fill a sphere (``gasp_core.mpm.roll_contact.round_body`` and
 ``gasp_core.mpm.roll_contact.sphere_radius``: principal moments within 5 %, no point beyond the volume's radius by
@@ -147,16 +148,20 @@ def ground_radius(setup) -> np.ndarray:
     return ground_shapes(setup)[:, 0]
 
 
-def shape_depth(centre, rot, shape, normal, offset: float) -> float:
+def shape_depth(centre, rot, shape, normal, offset: float, band: float = 0.0) -> float:
     """The depth (m, positive inside) in the plane ``normal . x = offset`` (unit ``normal`` out of the support) of a
     round shape (a :func:`ground_shapes` row) at ``centre`` (3,) m turned by ``rot`` (3, 3) from its rest frame: a
-    sphere's ``offset - n . c + R``; a cylinder's lowest point, ``offset - n . c + R |n_perp| + h |n . e|`` (``e =
-    rot e0``, ``n_perp`` the normal across the axis)."""
+    sphere's ``offset - n . c + R``; a cylinder's lowest point as the engines meet it, ``offset - n . c + R |n_perp| +
+    h max(|n . e| - band, 0)`` (``e = rot e0``, ``n_perp`` the normal across the axis, ``band`` its
+    :func:`level_band`: within it the line is level; round 89: without it, the start's lift raised the scan-like 5 cm
+    cylinder of ``benchmarks/studies/roll_collider89.py`` 26 um over a fitted axis 0.02 degrees off, from which it
+    fell, bounced and spun up 2.3 % short)."""
     n = np.asarray(normal, np.float64)
     R, h, e0 = float(shape[0]), float(shape[1]), np.asarray(shape[2:], np.float64)
     e = np.asarray(rot, np.float64) @ e0
     ne = float(n @ e)
-    return float(offset - n @ np.asarray(centre, np.float64) + R * np.sqrt(max(1.0 - ne * ne, 0.0)) + h * abs(ne))
+    return float(offset - n @ np.asarray(centre, np.float64) + R * np.sqrt(max(1.0 - ne * ne, 0.0))
+                 + h * max(abs(ne) - float(band), 0.0))
 
 
 def collider_reach(setup) -> float:
@@ -173,3 +178,23 @@ def collider_reach(setup) -> float:
     if not ROUND_COLLIDER or not getattr(setup, "colliders", None) or getattr(setup, "materials", None) is None:
         return 0.0   # no collider, or tables packed for the colliders alone (no bodies)
     return float(ground_shapes(setup)[:, 0].max(initial=0.0))
+
+
+def collider_depth(collider, centre, rot, shape, band: float = 0.0, t: float = 0.0) -> tuple[float, np.ndarray | None]:
+    """``(depth, n)``: how deep (m, positive inside) a round shape (a :func:`ground_shapes` row) at ``centre`` (3,) m,
+    turned by ``rot`` (3, 3) from its rest frame, lies in ``collider`` at its pose at time ``t`` (s), and the unit
+    normal out of the collider: the field read at the centre (trilinear, as the engines read it), its gradient the
+    normal, the shape's depth under the plane they give (:func:`shape_depth`, with the cylinder's ``band``). ``(0.0, None)`` off the field's grid or
+    where the gradient vanishes (round 89: the start's lift, ``gasp_core.mpm.rigid.lift_setup``)."""
+    from scipy.ndimage import map_coordinates
+    R, T = collider.pose(t)[:2]
+    u = (R.T @ (np.asarray(centre, np.float64) - T) - np.asarray(collider.origin)) / float(collider.h)
+    if np.any(u < 0.0) or np.any(u > np.asarray(collider.phi.shape) - 1):
+        return 0.0, None
+    at = u.reshape(3, 1)
+    phi = float(map_coordinates(collider.phi, at, order=1)[0])
+    g = np.array([map_coordinates(collider.grad[..., a], at, order=1)[0] for a in range(3)])
+    if not np.linalg.norm(g) > 0.0:
+        return 0.0, None
+    n = R @ (g / np.linalg.norm(g))
+    return shape_depth(centre, rot, shape, n, float(n @ np.asarray(centre, np.float64)) - phi, band), n

@@ -108,14 +108,14 @@ class RigidLift:
             y += (xd - y).dot(e) * e
         R = self.rb_rad[b]
         yf = ti.cast(y, self.real)
-        phi, n, vcy = self.collider_at(yf, c, base, ti.cast(R, self.real))
+        phi, n, vcy = self.collider_at(yf, c, base, ti.cast(2.0 * R, self.real))   # wherever it may touch (warp's)
         on = 0
         depth = ti.cast(0.0, self.real)
         xq, vq, vc = x, v, vcy
         kq = ti.Vector.zero(self.real, 3)
         if phi < OFF_GRID:
             on = 1   # held: the exact shape decides, touching or not
-            if phi <= R:
+            if phi <= 2.0 * R:
                 nd = ti.cast(n, ti.f64)
                 q, at = self.round_point(b, xd, nd)
                 on = at

@@ -79,7 +79,10 @@ def build_round_collider(Ft):
             e = ex.rb_rot[b] * ex.rb_ax[b]
             y = c + wp.dot(xd - c, e) * e
         yf = vec3(Ft(y[0]), Ft(y[1]), Ft(y[2]))
-        phi, n, vcy = collider_at(yf, cc, base, ex, Ft(R))
+        # the normal wherever the shape may touch: within 2 R (a cylinder's slice within its level band reads up to
+        # R + h band = R + slop / 2; gated at R, a cylinder on a fitted axis 0.02 degrees off lost the contact on half
+        # its slices and bounced at the start)
+        phi, n, vcy = collider_at(yf, cc, base, ex, Ft(wp.float64(2.0) * R))
         on = int(0)
         depth = Ft(0.0)
         xq = x
@@ -88,7 +91,7 @@ def build_round_collider(Ft):
         kq = vec3(Ft(0.0))
         if phi < Ft(OFF_GRID):
             on = 1   # held: the exact shape decides, touching or not
-            if phi <= Ft(R):
+            if phi <= Ft(wp.float64(2.0) * R):
                 nd = wp.vec3d(wp.float64(n[0]), wp.float64(n[1]), wp.float64(n[2]))
                 q, at = round_point(c, R, ex.rb_ax[b], ex.rb_rot[b], xd, nd, ex.rb_band[b])
                 on = at
