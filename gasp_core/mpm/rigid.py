@@ -206,13 +206,15 @@ def lift_setup(setup):
     0.36 m/s). Its points' penetration takes :func:`rigid_contact`'s skins
     (0 for its own Gaussians, half a spacing for a fill alone). Returns ``setup`` itself when nothing moves, else a
     shallow copy with ``x`` replaced."""
+    from gasp_core.colliders.sdf import padded
     from gasp_core.mpm.contact import contact_coefficients, contact_planes
     rigid = rigid_mask(setup.materials)
     if not rigid.any():
         return setup
     view = step_view(setup)
     normals, rows = contact_planes(view)
-    cols = list(getattr(setup, "colliders", None) or []) if round_ground.ROUND_COLLIDER else []
+    reach = round_ground.collider_reach(setup)   # round 89: the colliders' fields as the engines read them (padded)
+    cols = [padded(c, reach) for c in getattr(setup, "colliders", None) or []] if reach > 0.0 else []
     if not len(normals) and not cols:
         return setup
     skin = rigid_contact(setup, 1.0, contact_coefficients(view))[:, 2]
