@@ -11,7 +11,7 @@ engines. A round body meets a collider on its exact shape: each point reads the 
 - **The bowl**: a 5 cm ball released at rest 20 degrees up a spherical bowl of radius 0.25 m (the signed distance of
   the space outside a sphere, exact), mu 0.5. Rolling without slip, its centre swings on a circle of radius ``L =
   Rb - r`` as a pendulum of length ``(1 + k) L`` (``k = I / (M r^2)``): half period ``2 sqrt((1 + k) L / g)
-  K(sin^2(theta0 / 2))`` (``K`` the complete elliptic integral, scipy's ``ellipk``), 0.550 s; sliding without
+  K(sin^2(theta0 / 2))`` (``K`` the complete elliptic integral, scipy's ``ellipk``), 0.535 s; sliding without
   friction it would swing in ``1 / sqrt(1 + k)`` of it (15 % shorter). Measured: the time between the centre's first
   two passes under the bowl's centre, within 5 % (two-sided).
 - **Catches**: round 88's contact on the points (``ROUND_COLLIDER`` 0) fails the 5 cm ball; a frictionless bowl and
