@@ -19,7 +19,6 @@ engines. A round body meets a collider on its exact shape: each point reads the 
 """
 from __future__ import annotations
 
-import dataclasses
 import math
 import sys
 from pathlib import Path

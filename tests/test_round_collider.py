@@ -4,7 +4,6 @@ added samples; the depth of a round shape in a collider read at its centre; a ba
 its exact shape; no padding without a round body or with the switch off."""
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
@@ -84,7 +83,6 @@ def test_the_reach_is_the_largest_round_radius_and_none_without(monkeypatch):
     assert rg.collider_reach(s) == 0.0
     assert grid_tables(s).sdf.size == s.colliders[0].phi.size
     monkeypatch.undo()
-    cube = dataclasses.replace(s, x=np.asarray(s.x) * [1, 1, 1])
     x, p_vol = box_points(np.array([0.25, 0.25, 0.1]), np.array([0.35, 0.35, 0.2]), H)
     cube = make_setup(x, p_vol, Material("jelly", model="rigid", E=1.0e10, nu=0.3, rho=700.0), lo=np.zeros(3),
                       hi=np.full(3, 0.6), n_grid=48, frame_dt=1.0 / 60)

@@ -12,8 +12,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
-import math
 import sys
 import time
 from pathlib import Path
@@ -59,13 +57,7 @@ def row(engine: str, shape: str, radius: float, n_grid: int, sampling: str, mu: 
     sel = t >= rl.FIT_FROM
     fig = {"a": 2.0 * float(np.polyfit(t[sel], (c[sel] - c[0]) @ s, 2)[0]), "wR": float(w[-1, 1]) * radius,
            "v": float(v[-1] @ s)}
-    want = RF.closed_form(k, mu)
-    out = {"engine": engine, "shape": shape, "R": radius, "n_grid": n_grid, "sampling": sampling,
-           "gaussians": n_render, "mu": mu, "k": k, **fig, "a_want": want["a"], "a_err": fig["a"] / want["a"] - 1.0,
-           "problem": RF.problem(want, fig), "wall_s": time.time() - t0}
-    out["wR_err" if "wR" in want else "wR_over_v"] = (fig["wR"] / want["wR"] - 1.0 if "wR" in want
-                                                      else fig["wR"] / fig["v"])
-    return out
+    return RF.record(engine, shape, radius, n_grid, sampling, n_render, mu, k, fig, time.time() - t0)
 
 
 def main(argv=None) -> int:
@@ -84,16 +76,9 @@ def main(argv=None) -> int:
     for shape in a.shapes.split(","):
         for radius, n_grid, sampling in family():
             for mu in RF.MUS:
-                r = row(a.engine, shape, radius, n_grid, sampling, mu)
-                rows.append(r)
-                figs = f"a {100 * r['a_err']:+.2f} %, " + (f"wR {100 * r['wR_err']:+.2f} %" if "wR_err" in r
-                                                          else f"wR/v {r['wR_over_v']:.4f}")
-                print(f"{a.engine} {shape} R {radius} n_grid {n_grid} {sampling} ({r['gaussians']} Gaussians, k "
-                      f"{r['k']:.3f}) mu {mu}: {figs}; {r['problem'] or 'ok'}", flush=True)
-    if out is not None:
-        tmp = out.with_suffix(".tmp")
-        tmp.write_text(json.dumps(rows, indent=1))
-        tmp.replace(out)
+                rows.append(row(a.engine, shape, radius, n_grid, sampling, mu))
+                print(RF.report(rows[-1]), flush=True)
+    RF.write_rows(out, rows)
     return 0
 
 

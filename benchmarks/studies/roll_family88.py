@@ -167,15 +167,36 @@ def row(engine: str, radius: float, n_grid: int, sampling: str, mu: float, shape
     sel = tt >= rl.FIT_FROM
     fig = {"a": 2.0 * float(np.polyfit(tt[sel], c[sel, 0], 2)[0]), "wR": float(w[-1, 1]) * radius,
            "v": float(v[-1, 0])}
-    k = inertia_share(x, p_vol, radius)
+    return record(engine, shape, radius, n_grid, sampling, n_render, mu, inertia_share(x, p_vol, radius), fig,
+                  time.time() - t0)
+
+
+def record(engine: str, shape: str, radius: float, n_grid: int, sampling: str, n_render: int, mu: float, k: float,
+           fig: dict, wall_s: float) -> dict:
+    """One case's row: its figures ``fig`` (``a``, ``wR``, ``v``), the closed form of its ``k`` and the verdict."""
     want = closed_form(k, mu)
     out = {"engine": engine, "shape": shape, "R": radius, "n_grid": n_grid, "sampling": sampling, "gaussians": n_render,
-           "mu": mu,
-           "k": k, **fig, "a_want": want["a"], "a_err": fig["a"] / want["a"] - 1.0, "problem": problem(want, fig),
-           "wall_s": time.time() - t0}
+           "mu": mu, "k": k, **fig, "a_want": want["a"], "a_err": fig["a"] / want["a"] - 1.0,
+           "problem": problem(want, fig), "wall_s": wall_s}
     out["wR_err" if "wR" in want else "wR_over_v"] = (fig["wR"] / want["wR"] - 1.0 if "wR" in want
                                                       else fig["wR"] / fig["v"])
     return out
+
+
+def report(r: dict) -> str:
+    """A row as one printed line."""
+    figs = f"a {100 * r['a_err']:+.2f} %, " + (f"wR {100 * r['wR_err']:+.2f} %" if "wR_err" in r
+                                              else f"wR/v {r['wR_over_v']:.4f}")
+    return (f"{r['engine']} {r['shape']} R {r['R']} n_grid {r['n_grid']} {r['sampling']} ({r['gaussians']} Gaussians, "
+            f"k {r['k']:.3f}) mu {r['mu']}: {figs}; {r['problem'] or 'ok'}")
+
+
+def write_rows(out: Path | None, rows: list[dict]) -> None:
+    """The rows as JSON in ``out`` (atomically; nothing without it)."""
+    if out is not None:
+        tmp = out.with_suffix(".tmp")
+        tmp.write_text(json.dumps(rows, indent=1))
+        tmp.replace(out)
 
 
 def main(argv=None) -> int:
@@ -191,16 +212,9 @@ def main(argv=None) -> int:
     for shape in a.shapes.split(","):
         for radius, n_grid, sampling in family(shape):
             for mu in MUS:
-                r = row(a.engine, radius, n_grid, sampling, mu, shape)
-                rows.append(r)
-                figs = f"a {100 * r['a_err']:+.2f} %, " + (f"wR {100 * r['wR_err']:+.2f} %" if "wR_err" in r
-                                                          else f"wR/v {r['wR_over_v']:.4f}")
-                print(f"{a.engine} {shape} R {radius} n_grid {n_grid} {sampling} ({r['gaussians']} Gaussians, k "
-                      f"{r['k']:.3f}) mu {mu}: {figs}; {r['problem'] or 'ok'}", flush=True)
-    if out is not None:
-        tmp = out.with_suffix(".tmp")
-        tmp.write_text(json.dumps(rows, indent=1))
-        tmp.replace(out)
+                rows.append(row(a.engine, radius, n_grid, sampling, mu, shape))
+                print(report(rows[-1]), flush=True)
+    write_rows(out, rows)
     return 0
 
 
