@@ -9,6 +9,7 @@ samples of padding, at most :data:`MAX_SDF_SAMPLES` of them.
 """
 from __future__ import annotations
 
+import weakref
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -231,6 +232,22 @@ def padded(collider: Collider, reach: float) -> Collider:
         ``collider`` itself where its padding already reaches or no sample can be added within
         :data:`MAX_SDF_SAMPLES`; else a copy on the larger grid (``origin`` moved out by the added samples).
     """
+    hit = _PADDED.get(id(collider))
+    if hit is not None and hit[0]() is collider and hit[1] == float(reach):
+        return hit[2]
+    out = _pad(collider, float(reach))
+    _PADDED[id(collider)] = (weakref.ref(collider), float(reach), out)
+    weakref.finalize(collider, _PADDED.pop, id(collider), None)
+    return out
+
+
+#: :func:`padded`'s last result per collider (the setup's lift and the engines' tables read the same one): ``id`` to
+#: ``(weak reference, reach, padded collider)``, dropped with the collider.
+_PADDED: dict[int, tuple] = {}
+
+
+def _pad(collider: Collider, reach: float) -> Collider:
+    """:func:`padded`'s work, uncached."""
     import dataclasses
     h = float(collider.h)
     shape = np.asarray(collider.phi.shape, np.int64)

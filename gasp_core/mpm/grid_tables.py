@@ -192,12 +192,7 @@ def frame_table(setup, t_start: float, n_substeps: int, dt: float) -> np.ndarray
     row-major), ``T`` (3), ``v`` (3), ``w`` (3) of :meth:`Collider.pose` at ``t``, then per
     impulse its :func:`impulse_weight` for ``[t, t + dt)``.
     """
-    cols = list(getattr(setup, "colliders", []) or [])
-    if cols:   # round 89: the field held out to the round rigid bodies' radius (their centres read it)
-        from gasp_core.colliders.sdf import padded
-        from gasp_core.mpm.round_ground import collider_reach
-        reach = collider_reach(setup)
-        cols = [padded(c, reach) for c in cols] if reach > 0.0 else cols
+    cols = list(getattr(setup, "colliders", []) or [])   # their poses only: :func:`grid_tables`' padding keeps them
     imps = list(getattr(setup, "impulses", []) or [])
     w = 1 + COL_POSE * len(cols) + len(imps)
     out = np.zeros((n_substeps, w))
