@@ -1,25 +1,31 @@
-"""Round 90 (issue 67 item 2 on a moving ``[[collider]]``, ``docs/rigid.md`` "Round 90: a round body on a moving
-belt"): a rigid ball or solid cylinder at rest on a flat mesh plate that moves at a constant ``U`` from ``t = 0``
-(a belt started at once). Friction drags the body along and spins it up until its bottom moves with the belt; then it
-rolls at a constant speed.
+"""Round 90 (issue 67 item 2 on a moving ``[[collider]]``, ``docs/rigid.md`` "Round 90: round bodies on moving
+colliders"): rigid balls and solid cylinders set at rest on a collider that moves, against closed forms.
 
-The closed form (Coulomb, ``k = I / (M R^2)`` of the body's own points, ``roll_family88.inertia_share``): while it slips
-the centre accelerates at ``mu g`` along the belt and the spin grows at ``mu g / (k R)``; the slip ends at
-``t* = k U / ((1 + k) mu g)``; after it the centre moves at ``v = k U / (1 + k)`` (2/7 U for a solid sphere, U/3 for a
-solid cylinder: the angular momentum about the contact line is kept) and ``omega R = U - v``.
+**The belt.** A flat plate 1.0 x 0.5 x 0.1 m (12 triangles, trimesh's exact signed distance), its top 0.15 m over the
+floor of a 0.6 m box, moves at ``U`` 0.3 m/s along x from ``t = 0`` (``[[collider]] velocity``: a belt started at
+once); the body of ``roll_family88.body`` (its axis along y) rests on it, gravity straight down. Coulomb's closed form,
+of the body's own ``k = I / (M R^2)`` (``roll_family88.inertia_share``): while it slips the centre accelerates at
+``mu g`` along the belt and the spin grows at ``mu g / (k R)``; the slip ends at ``t* = k U / ((1 + k) mu g)``; then
+the centre moves at ``v = k U / (1 + k)`` (2/7 U for a solid sphere, U/3 for a solid cylinder: the angular momentum
+about the contact line is kept) with ``omega R = U - v``. Figures: the slipping acceleration (a parabola fitted to the
+centre's travel over the frames within ``0.8 t*``, where those are ``MIN_FIT_FRAMES`` or more: mu 0.05), ``v`` and
+``omega R`` at ``T`` s. The family: R 0.05 and 0.1 m, n_grid 32 and 48, mu 0.05 and 0.5, and the 5 cm body at n_grid
+48 with ``roll_family88``'s other samplings.
 
-The case: a plate 1.0 x 0.5 x 0.1 m (12 triangles, trimesh's exact signed distance), its top 0.15 m over the floor of
-a 0.6 m box, moving at ``U`` 0.3 m/s along x with ``[[collider]] velocity``; the body of ``roll_family88.body`` on it,
-gravity straight down. Figures: the slipping acceleration (a parabola fitted to the centre's travel over the frames
-within ``0.8 t*``, only where that holds ``MIN_FIT_FRAMES`` frames: mu 0.05), ``v`` and ``omega R`` at ``T`` s,
-each against the closed form within ``test_rolling.TOL`` (5 %, two-sided).
+**The turntable** (balls only). A square plate 1.0 x 1.0 x 0.1 m turns at ``OMEGA`` 3 rad/s about the vertical
+(``[[collider]] angular_velocity``); the ball starts at rest ``R0`` 0.1 m off its axis. Once it rolls, its centre
+circles the axis at ``k Omega / (1 + k)`` (2/7 of the table's for a solid sphere) at the radius it started at (Ehrlich
+& Tuszynski 1995, Am. J. Phys. 63, 351). Figures: the rate fitted over ``TURN_T`` s and the mean radius. The family:
+R 0.05 and 0.1 m, n_grid 32 and 48, mu 0.05 and 0.5.
+
+Each figure within ``test_rolling.TOL`` (5 %, two-sided) of its closed form.
 ``python benchmarks/studies/roll_belt90.py --engine warp_mpm --out benchmarks/results/roll_belt90_warp.json``
-(refused if the file exists); ``--round-collider 0`` runs round 88's contact on the points (the broken variant).
+(refused if the file exists); ``--parts belt,turntable``; ``--round-collider 0`` runs round 88's contact on the points
+(the broken variant).
 """
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 import time
 from pathlib import Path
@@ -81,38 +87,156 @@ def problem(want: dict, fig: dict) -> str | None:
     return "; ".join(out) or None
 
 
-def row(engine: str, shape: str, radius: float, n_grid: int, mu: float, speed: float = U) -> dict:
-    """One case on ``engine``: the body of ``shape`` (axis along y, across the belt) at rest on the belt of friction
-    ``mu``; its figures, the closed form of its own ``k`` and the verdict."""
+def measure(engine: str, shape: str, radius: float, n_grid: int, mu: float, sampling: str = "fibonacci",
+            friction: float | None = None, output=None) -> tuple[float, dict, dict]:
+    """``(k, figures, closed form)`` of the body of ``shape`` (``roll_family88.body``, its axis along y, across the
+    belt) at rest on the belt of friction ``mu``. The broken variants: ``friction`` the collider's friction in place
+    of ``mu`` (the closed form stays ``mu``'s), ``output(centroids)`` the frames' centres rewritten (the velocity then
+    taken from them)."""
     from gasp_core.seam.setup import Material
     from gasp_core.testing.helpers import make_setup
-    x, vol, n_render = RF.body(shape, radius, n_grid, "fibonacci")
+    x, vol, n_render = RF.body(shape, radius, n_grid, sampling)
     k = RF.inertia_share(x, vol, radius)
     x = x - (vol[:, None] * x).sum(0) / vol.sum() + START + np.array([0.0, 0.0, radius])
     st = make_setup(x, vol, Material("jelly", model="rigid", E=1.0e10, nu=0.3, rho=700.0), lo=np.zeros(3),
                     hi=np.full(3, BOX), n_grid=n_grid, frame_dt=1.0 / FPS)
     st.n_render = n_render
-    st.colliders = [belt_collider(mu, n_grid, speed)]
-    want = closed_form(k, mu, speed)
-    t0 = time.time()
+    st.colliders = [belt_collider(mu if friction is None else friction, n_grid)]
+    want = closed_form(k, mu)
     c, v, w = rl.trace(engine, st, T)
-    fig = figures(c, v, w, radius, want["t_star"])
-    return {"engine": engine, "shape": shape, "R": radius, "n_grid": n_grid, "mu": mu, "U": speed, "k": k, **fig,
-            **{f"{key}_want": val for key, val in want.items()},
+    if output is not None:
+        c = output(c)
+        v = np.vstack([np.zeros(3), np.diff(c, axis=0) * FPS])
+    return k, figures(c, v, w, radius, want["t_star"]), want
+
+
+def row(engine: str, shape: str, radius: float, n_grid: int, mu: float, sampling: str = "fibonacci") -> dict:
+    """One case on ``engine`` (:func:`measure`): its figures, the closed form of its own ``k`` and the verdict."""
+    t0 = time.time()
+    k, fig, want = measure(engine, shape, radius, n_grid, mu, sampling)
+    return {"engine": engine, "shape": shape, "R": radius, "n_grid": n_grid, "sampling": sampling, "mu": mu, "U": U,
+            "k": k, **fig, **{f"{key}_want": val for key, val in want.items()},
             **{f"{key}_err": (fig[key] / want[key] - 1.0 if fig[key] is not None else None) for key in ("a", "v", "wR")},
             "problem": problem(want, fig), "wall_s": time.time() - t0}
 
 
+def family() -> list[tuple[float, int, str]]:
+    """``(radius m, n_grid, sampling)`` of the family (for each shape and ``mu``): every radius and grid on the
+    test's sampling, and the other samplings of ``roll_family88`` on the 5 cm body at n_grid 48."""
+    return [(r, n, "fibonacci") for r in RADII for n in GRIDS] + [(0.05, 48, s) for s in RF.SAMPLINGS
+                                                                      if s != "fibonacci"]
+
+
 def report(r: dict) -> str:
     errs = ", ".join(f"{key} {100 * r[key + '_err']:+.2f} %" for key in ("a", "v", "wR") if r[key + "_err"] is not None)
-    return (f"{r['engine']} {r['shape']} R {r['R']} n_grid {r['n_grid']} mu {r['mu']} (k {r['k']:.3f}, t* "
+    return (f"{r['engine']} {r['shape']} R {r['R']} n_grid {r['n_grid']} {r['sampling']} mu {r['mu']} (k {r['k']:.3f}, t* "
             f"{r['t_star_want']:.3f} s): {errs}; {r['problem'] or 'ok'} [{r['wall_s']:.0f} s]")
+
+
+# --------------------------------------------------------------------------- soft blocks on the belt
+#: The jelly of ``tests/test_elastic_slope.py`` and its two blocks (m): the issue's flat block and round 77's cube.
+BLOCKS = {"block": (0.15, 0.15, 0.05), "cube": (0.1, 0.1, 0.1)}
+BLOCK_GRIDS, BLOCK_MUS, CONTACTS = (24, 48), (0.1, 0.4), ("particle", "grid")
+#: The slipping fit starts after the first frames (the block settles onto the plate; ``test_rigid_slope``'s 0.05 s).
+BLOCK_FIT_FROM = 0.05
+
+
+def block(engine: str, shape: str, contact: str, n_grid: int, mu: float, friction: float | None = None,
+          output=None) -> dict:
+    """A jelly block (E 1e5 Pa, nu 0.3, rho 1000) of ``BLOCKS[shape]`` at rest on the belt, on the ``contact``
+    model. Coulomb: its centre accelerates at ``mu g`` until it moves with the belt at ``t* = U / (mu g)``, then
+    keeps ``U``. Figures: ``a`` (a parabola over the frames from ``BLOCK_FIT_FROM`` to ``0.8 t*``, where those are
+    ``MIN_FIT_FRAMES`` or more) and ``v`` (the centre's speed over the last frame), with ``problem`` (None within
+    ``test_rolling.TOL``, two-sided). ``friction``, ``output``: the broken variants (:func:`measure`'s)."""
+    from gasp_core.seam.setup import Material
+    from gasp_core.testing.helpers import box_points, make_setup
+    side = np.asarray(BLOCKS[shape])
+    lo = START - np.array([0.05, side[1] / 2, 0.0])
+    x, vol = box_points(lo, lo + side, BOX / n_grid / 2)
+    st = make_setup(x, vol, Material("jelly", model="elastic", E=1.0e5, nu=0.3, rho=1000.0), lo=np.zeros(3),
+                    hi=np.full(3, BOX), n_grid=n_grid, frame_dt=1.0 / FPS, options={"contact": contact})
+    st.n_render = 0
+    st.colliders = [belt_collider(mu if friction is None else friction, n_grid)]
+    t0 = time.time()
+    c = rl.trace(engine, st, T)[0]
+    c = c if output is None else output(c)
+    t = np.arange(len(c)) / FPS
+    sel = (t >= BLOCK_FIT_FROM) & (t <= 0.8 * U / (mu * rl.G))
+    fig = {"a": 2.0 * float(np.polyfit(t[sel], c[sel, 0], 2)[0]) if sel.sum() >= MIN_FIT_FRAMES else None,
+           "v": float(c[-1, 0] - c[-2, 0]) * FPS}
+    want = {"a": mu * rl.G, "v": U}
+    return {"engine": engine, "shape": shape, "contact": contact, "n_grid": n_grid, "mu": mu, **fig,
+            **{f"{key}_want": val for key, val in want.items()},
+            **{f"{key}_err": (fig[key] / want[key] - 1.0 if fig[key] is not None else None) for key in want},
+            "problem": problem(want, fig), "wall_s": time.time() - t0}
+
+
+# --------------------------------------------------------------------------- the turntable
+#: The turntable's spin (rad/s, about z), the ball's start off its axis (m), the run (s), its top's world centre (m).
+OMEGA, R0, TURN_T = 3.0, 0.1, 1.0
+AXIS = np.array([0.3, 0.3, 0.15])
+
+
+def turntable_collider(mu: float, n_grid: int, spin: tuple = (0.0, 0.0, OMEGA), cls=None):
+    """A square plate 1.0 x 1.0 x 0.1 m turning at ``spin`` (rad/s) about the vertical through ``AXIS`` (its top
+    face's centre; ``[[collider]] angular_velocity``), friction ``mu``. ``cls``: a :class:`Collider` subclass (the
+    broken variants)."""
+    import dataclasses
+    from gasp_core.colliders.model import Motion
+    from gasp_core.colliders.sdf import SDF_SPACING, collider_from_triangles
+    tri = (np.array([0.0, 0.0, -0.05]) + _CORNERS * np.array([0.5, 0.5, 0.05]))[_FACES]
+    col = collider_from_triangles(tri, SDF_SPACING * BOX / n_grid, name="turntable", friction=mu, position=AXIS,
+                                  motion=Motion(angular_velocity=spin))
+    return col if cls is None else cls(**{f.name: getattr(col, f.name) for f in dataclasses.fields(col)})
+
+
+def turntable_figures(c: np.ndarray, k: float, t_from: float) -> dict:
+    """The ball's orbit about the axis from its per-frame centres ``c``: ``rate`` (rad/s, the slope of its angle
+    about the axis fitted from ``t_from`` s), ``r`` (m, its mean distance from the axis over those frames) and the
+    closed form's (Ehrlich & Tuszynski 1995, Am. J. Phys. 63, 351: a rolling ball's centre circles the axis at
+    ``k Omega / (1 + k)``, 2/7 of the table's for a solid sphere, at the radius it started at)."""
+    t = np.arange(len(c)) / FPS
+    d = c[:, :2] - AXIS[:2]
+    ang = np.unwrap(np.arctan2(d[:, 1], d[:, 0]))
+    sel = t >= t_from
+    return {"rate": float(np.polyfit(t[sel], ang[sel], 1)[0]), "r": float(np.linalg.norm(d[sel], axis=1).mean()),
+            "rate_want": k * OMEGA / (1.0 + k), "r_want": R0}
+
+
+def turntable(engine: str, radius: float, n_grid: int, mu: float, friction: float | None = None, cls=None,
+              output=None) -> dict:
+    """A rigid ball (``roll_family88.ball``) set at rest ``R0`` off the axis of the turntable of friction ``mu``;
+    :func:`turntable_figures` from twice the slip's end on, with ``problem`` (None within ``test_rolling.TOL``,
+    two-sided, on the rate and the radius). ``friction``, ``output``: the broken variants (:func:`measure`'s); ``cls``
+    (:func:`turntable_collider`'s) another."""
+    from gasp_core.seam.setup import Material
+    from gasp_core.testing.helpers import make_setup
+    x, vol, _ = RF.body("ball", radius, n_grid, "fibonacci")
+    k = RF.inertia_share(x, vol, radius)
+    x = x - (vol[:, None] * x).sum(0) / vol.sum() + AXIS + np.array([R0, 0.0, radius])
+    st = make_setup(x, vol, Material("jelly", model="rigid", E=1.0e10, nu=0.3, rho=700.0), lo=np.zeros(3),
+                    hi=np.full(3, BOX), n_grid=n_grid, frame_dt=1.0 / FPS)
+    st.colliders = [turntable_collider(mu if friction is None else friction, n_grid, cls=cls)]
+    t0 = time.time()
+    c = rl.trace(engine, st, TURN_T)[0]
+    c = c if output is None else output(c)
+    fig = turntable_figures(c, k, 2.0 * closed_form(k, mu, OMEGA * R0)["t_star"])
+    return {"engine": engine, "R": radius, "n_grid": n_grid, "mu": mu, "k": k, **fig,
+            "problem": turntable_problem(fig), "wall_s": time.time() - t0}
+
+
+def turntable_problem(fig: dict) -> str | None:
+    """None when the orbit's rate and radius are within ``test_rolling.TOL`` of the closed form (two-sided)."""
+    bad = [f"{key} {fig[key]:.5g} against {fig[key + '_want']:.5g} ({100 * (fig[key] / fig[key + '_want'] - 1):+.2f} %)"
+           for key in ("rate", "r") if abs(fig[key] / fig[key + "_want"] - 1.0) > rl.TOL]
+    return "; ".join(bad) or None
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--engine", default="warp_mpm")
     ap.add_argument("--shapes", default="ball,cylinder", help="ball, cylinder or both (comma-separated)")
+    ap.add_argument("--parts", default="belt,turntable,blocks", help="belt, turntable, blocks (comma-separated)")
     ap.add_argument("--round-collider", type=int, default=1, help="gasp_core.mpm.round_ground.ROUND_COLLIDER")
     ap.add_argument("--out", default=None, help="a new JSON file for the rows (refused if it exists)")
     a = ap.parse_args(argv)
@@ -122,12 +246,27 @@ def main(argv=None) -> int:
     import gasp_core.mpm.round_ground as rg
     rg.ROUND_COLLIDER = a.round_collider
     rows = []
-    for shape in a.shapes.split(","):
-        for radius in RADII:
-            for n_grid in GRIDS:
-                for mu in MUS:
-                    rows.append(row(a.engine, shape, radius, n_grid, mu))
-                    print(report(rows[-1]), flush=True)
+    for shape in a.shapes.split(",") if "belt" in a.parts else []:
+        for radius, n_grid, sampling in family():
+            for mu in MUS:
+                rows.append(row(a.engine, shape, radius, n_grid, mu, sampling))
+                print(report(rows[-1]), flush=True)
+    for radius in RADII if "turntable" in a.parts else ():
+        for n_grid in GRIDS:
+            for mu in MUS:
+                rows.append(turntable(a.engine, radius, n_grid, mu))
+                print(f"{a.engine} turntable R {radius} n_grid {n_grid} mu {mu}: rate {rows[-1]['rate']:.4f} against "
+                      f"{rows[-1]['rate_want']:.4f}, r {rows[-1]['r']:.4f}; {rows[-1]['problem'] or 'ok'}", flush=True)
+    for shape in BLOCKS if "blocks" in a.parts else ():
+        for contact in CONTACTS:
+            for n_grid in BLOCK_GRIDS:
+                for mu in BLOCK_MUS:
+                    rows.append(block(a.engine, shape, contact, n_grid, mu))
+                    r = rows[-1]
+                    errs = ", ".join(f"{key} {100 * r[key + '_err']:+.2f} %" for key in ("a", "v")
+                                     if r[key + "_err"] is not None)
+                    print(f"{a.engine} jelly {shape} {contact} n_grid {n_grid} mu {mu}: {errs}; {r['problem'] or 'ok'} "
+                          f"[{r['wall_s']:.0f} s]", flush=True)
     RF.write_rows(out, rows)
     return 0
 
