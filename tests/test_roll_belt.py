@@ -18,8 +18,9 @@ at 0.5 s.
   Pa) as its flat block (15 x 15 x 5 cm) and round 77's 10 cm cube, at rest on the belt, on the particle and the grid
   contact. Coulomb: the centre accelerates at ``mu g`` until it rides the belt at ``t* = U / (mu g)``; then it keeps
   ``U``. The family (slow): both shapes and contacts, n_grid 24 and 48, mu 0.1 and 0.4.
-- **The default tier**: the 10 cm ball slipping (mu 0.05) on the belt, the 10 cm ball (mu 0.5) on the turntable, and
-  the flat jelly block (mu 0.1, n_grid 24) on both contacts, on both engines.
+- **The default tier**: the 10 cm ball slipping (mu 0.05) on the belt and the flat jelly block (mu 0.1, n_grid 24) on
+  both contacts, on both engines; the 10 cm ball (mu 0.5) on the turntable on warp_mpm (taichi_mpm slow); the belt's
+  and the block's catches (the turntable's slow).
 - **Catches**: a belt without friction (the body stays put), an engine that ignores ``mu`` (the collider's friction
   0.4 whatever the scene says), one that holds a body still while it is slower than 0.1 m/s
   (``slopes.rest_brake``), round 88's contact on the points (``ROUND_COLLIDER`` 0: the 5 cm ball at n_grid 48 rolls
@@ -39,7 +40,7 @@ pytest.importorskip("trimesh", reason="mesh colliders need trimesh (the [mesh] e
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks" / "studies"))
 
 import roll_belt90 as RB  # noqa: E402
-from slopes import ENGINES, rest_brake  # noqa: E402
+from slopes import ENGINE_NAMES, ENGINES, engine_param, rest_brake  # noqa: E402
 
 SLIP_MU = 0.05
 
@@ -84,7 +85,8 @@ def test_the_belt_check_catches_broken_engines(monkeypatch):
 
 
 # --------------------------------------------------------------------------- the turntable
-@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("engine", [engine_param(e, [pytest.mark.slow] if e == "taichi_mpm" else [])
+                                    for e in ENGINE_NAMES])
 def test_a_ball_on_a_turntable_circles_its_axis_at_two_sevenths_of_its_spin(engine):
     pytest.importorskip(f"gasp_{engine}")
     r = RB.turntable(engine, 0.1, 32, 0.5)
@@ -111,6 +113,7 @@ def _no_spin():
     return NoSpin
 
 
+@pytest.mark.slow
 def test_the_turntable_check_catches_broken_engines():
     pytest.importorskip("gasp_warp_mpm")
     case = ("warp_mpm", 0.1, 32, 0.5)
