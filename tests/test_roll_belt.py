@@ -1,5 +1,5 @@
-"""Issue 67 item 2 on a moving ``[[collider]]`` (round 90, ``docs/rigid.md`` "Round 90: a round body on a moving
-belt"): a rigid ball or solid cylinder at rest on a flat mesh plate that moves at ``U`` = 0.3 m/s from ``t = 0``
+"""Issue 67 items 2 and 3 on a sliding ``[[collider]]`` (round 90, ``docs/rigid.md`` "Round 90: round bodies on moving
+colliders"): a rigid ball or solid cylinder at rest on a flat mesh plate that moves at ``U`` = 0.3 m/s from ``t = 0``
 (``[[collider]] velocity``; ``benchmarks/studies/roll_belt90.py``), on both MPM engines.
 
 Coulomb's closed form, of the body's own ``k = I / (M R^2)``: while it slips the centre accelerates at ``mu g`` along
@@ -10,37 +10,30 @@ at 0.5 s.
 
 - **The family** (slow, both engines): balls and cylinders of R 0.05 and 0.1 m at n_grid 32 and 48 (a 0.6 m box), the
   5 cm body at n_grid 48 with ``roll_family88``'s other samplings of its Gaussians, mu 0.05 and 0.5.
-- **The turntable**: a rigid ball set at rest 0.1 m off the axis of a plate turning at 3 rad/s
-  (``[[collider]] angular_velocity``). Rolling, its centre circles the axis at ``k Omega / (1 + k)`` (2/7 of the
-  table's for a solid sphere) at the radius it started at (Ehrlich & Tuszynski 1995, Am. J. Phys. 63, 351): the rate
-  over 1 s and the mean radius within 5 %. The family (slow): R 0.05 and 0.1 m, n_grid 32 and 48, mu 0.05 and 0.5.
 - **Jelly blocks on the belt** (issue 67 item 3 on a moving collider): ``tests/test_elastic_slope.py``'s jelly (E 1e5
   Pa) as its flat block (15 x 15 x 5 cm) and round 77's 10 cm cube, at rest on the belt, on the particle and the grid
   contact. Coulomb: the centre accelerates at ``mu g`` until it rides the belt at ``t* = U / (mu g)``; then it keeps
   ``U``. The family (slow): both shapes and contacts, n_grid 24 and 48, mu 0.1 and 0.4.
 - **The default tier**: the 10 cm ball slipping (mu 0.05) on the belt and the flat jelly block (mu 0.1, n_grid 24) on
-  both contacts, on both engines; the 10 cm ball (mu 0.5) on the turntable on warp_mpm (taichi_mpm slow); the belt's
-  and the block's catches (the turntable's slow).
+  both contacts, on both engines; the belt's and the block's catches. Colliders that turn: ``tests/test_roll_spin.py``.
 - **Catches**: a belt without friction (the body stays put), an engine that ignores ``mu`` (the collider's friction
   0.4 whatever the scene says), one that holds a body still while it is slower than 0.1 m/s
   (``slopes.rest_brake``), round 88's contact on the points (``ROUND_COLLIDER`` 0: the 5 cm ball at n_grid 48 rolls
-  15 % fast, warp_mpm), and figures 6 % off; on the turntable a frictionless table, an engine that drops the
-  collider's spin from its surface velocity, the rest brake and figures 6 % off; for the jelly block a frictionless
-  belt, one that ignores ``mu``, the rest brake and figures 6 % off, on both contacts.
+  15 % fast, warp_mpm), and figures 6 % off; for the jelly block a frictionless belt, one that ignores ``mu``, the
+  rest brake and figures 6 % off, on both contacts.
 """
 from __future__ import annotations
 
 import sys
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 pytest.importorskip("trimesh", reason="mesh colliders need trimesh (the [mesh] extra)")
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks" / "studies"))
 
 import roll_belt90 as RB  # noqa: E402
-from slopes import ENGINE_NAMES, ENGINES, engine_param, rest_brake  # noqa: E402
+from slopes import ENGINES, rest_brake  # noqa: E402
 
 SLIP_MU = 0.05
 
@@ -82,49 +75,6 @@ def test_the_belt_check_catches_broken_engines(monkeypatch):
     caught["on its points"] = _problem("warp_mpm", "ball", 0.05, 48, SLIP_MU)
     missed = [k for k, v in caught.items() if v is None]
     assert not missed, f"the belt's check misses {missed}"
-
-
-# --------------------------------------------------------------------------- the turntable
-@pytest.mark.parametrize("engine", [engine_param(e, [pytest.mark.slow] if e == "taichi_mpm" else [])
-                                    for e in ENGINE_NAMES])
-def test_a_ball_on_a_turntable_circles_its_axis_at_two_sevenths_of_its_spin(engine):
-    pytest.importorskip(f"gasp_{engine}")
-    r = RB.turntable(engine, 0.1, 32, 0.5)
-    assert r["problem"] is None, f"{engine}: {r['problem']}"
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("engine", ENGINES)
-def test_a_ball_on_a_turntable_across_the_family(engine):
-    pytest.importorskip(f"gasp_{engine}")
-    bad = [f"R {r} n_grid {n} mu {mu}: {p}" for r in RB.RADII for n in RB.GRIDS for mu in RB.MUS
-           if (p := RB.turntable(engine, r, n, mu)["problem"]) is not None]
-    assert not bad, f"{engine}: {bad}"
-
-
-def _no_spin():
-    """A collider whose surface velocity leaves out its spin (``w x r``), though its field turns: the broken variant."""
-    from gasp_core.colliders.model import Collider
-
-    class NoSpin(Collider):
-        def pose(self, t):
-            R, T, v, _ = super().pose(t)
-            return R, T, v, np.zeros(3)
-    return NoSpin
-
-
-@pytest.mark.slow
-def test_the_turntable_check_catches_broken_engines():
-    pytest.importorskip("gasp_warp_mpm")
-    case = ("warp_mpm", 0.1, 32, 0.5)
-    fig = RB.turntable(*case)
-    caught = {"frictionless": RB.turntable(*case, friction=0.0)["problem"],
-              "drops the spin": RB.turntable(*case, cls=_no_spin())["problem"],
-              "rest brake": RB.turntable(*case, output=lambda c: rest_brake(c, RB.FPS))["problem"],
-              **{f"{name}": RB.turntable_problem({**fig, "rate": f * fig["rate"], "r": f * fig["r"]})
-                 for name, f in (("6 % high", 1.06), ("6 % low", 0.94))}}
-    missed = [k for k, v in caught.items() if v is None]
-    assert not missed, f"the turntable's check misses {missed}"
 
 
 # --------------------------------------------------------------------------- jelly blocks on the belt

@@ -1,5 +1,6 @@
 """Round 90 (issue 67 item 2 on a moving ``[[collider]]``, ``docs/rigid.md`` "Round 90: round bodies on moving
-colliders"): rigid balls and solid cylinders set at rest on a collider that moves, against closed forms.
+colliders"): rigid balls and solid cylinders, and jelly blocks, set at rest on a collider that slides, against
+closed forms.
 
 **The belt.** A flat plate 1.0 x 0.5 x 0.1 m (12 triangles, trimesh's exact signed distance), its top 0.15 m over the
 floor of a 0.6 m box, moves at ``U`` 0.3 m/s along x from ``t = 0`` (``[[collider]] velocity``: a belt started at
@@ -12,16 +13,14 @@ centre's travel over the frames within ``0.8 t*``, where those are ``MIN_FIT_FRA
 ``omega R`` at ``T`` s. The family: R 0.05 and 0.1 m, n_grid 32 and 48, mu 0.05 and 0.5, and the 5 cm body at n_grid
 48 with ``roll_family88``'s other samplings.
 
-**The turntable** (balls only). A square plate 1.0 x 1.0 x 0.1 m turns at ``OMEGA`` 3 rad/s about the vertical
-(``[[collider]] angular_velocity``); the ball starts at rest ``R0`` 0.1 m off its axis. Once it rolls, its centre
-circles the axis at ``k Omega / (1 + k)`` (2/7 of the table's for a solid sphere) at the radius it started at (Ehrlich
-& Tuszynski 1995, Am. J. Phys. 63, 351). Figures: the rate fitted over ``TURN_T`` s and the mean radius. The family:
-R 0.05 and 0.1 m, n_grid 32 and 48, mu 0.05 and 0.5.
+**Jelly blocks on the belt** (``--parts blocks``, issue 67 item 3): ``tests/test_elastic_slope.py``'s jelly (E 1e5 Pa)
+as its flat block and round 77's cube, on the particle and the grid contact (:func:`block`). Colliders that turn (a
+turntable, a drum): ``roll_spin90.py``.
 
 Each figure within ``test_rolling.TOL`` (5 %, two-sided) of its closed form.
-``python benchmarks/studies/roll_belt90.py --engine warp_mpm --out benchmarks/results/roll_belt90_warp.json``
-(refused if the file exists); ``--parts belt,turntable``; ``--round-collider 0`` runs round 88's contact on the points
-(the broken variant).
+``python benchmarks/studies/roll_belt90.py --engine warp_mpm --parts belt --out
+benchmarks/results/roll_belt90_warp.json`` (refused if the file exists), and ``--parts blocks``;
+``--round-collider 0`` runs round 88's contact on the points (the broken variant).
 """
 from __future__ import annotations
 
@@ -116,7 +115,7 @@ def row(engine: str, shape: str, radius: float, n_grid: int, mu: float, sampling
     k, fig, want = measure(engine, shape, radius, n_grid, mu, sampling)
     return {"engine": engine, "shape": shape, "R": radius, "n_grid": n_grid, "sampling": sampling, "mu": mu, "U": U,
             "k": k, **fig, **{f"{key}_want": val for key, val in want.items()},
-            **{f"{key}_err": (fig[key] / want[key] - 1.0 if fig[key] is not None else None) for key in ("a", "v", "wR")},
+            **{f"{key}_err": (None if fig[key] is None else fig[key] / want[key] - 1.0) for key in ("a", "v", "wR")},
             "problem": problem(want, fig), "wall_s": time.time() - t0}
 
 
@@ -128,9 +127,10 @@ def family() -> list[tuple[float, int, str]]:
 
 
 def report(r: dict) -> str:
-    errs = ", ".join(f"{key} {100 * r[key + '_err']:+.2f} %" for key in ("a", "v", "wR") if r[key + "_err"] is not None)
-    return (f"{r['engine']} {r['shape']} R {r['R']} n_grid {r['n_grid']} {r['sampling']} mu {r['mu']} (k {r['k']:.3f}, t* "
-            f"{r['t_star_want']:.3f} s): {errs}; {r['problem'] or 'ok'} [{r['wall_s']:.0f} s]")
+    errs = ", ".join(f"{key} {100 * r[key + '_err']:+.2f} %" for key in ("a", "v", "wR")
+                     if r[key + "_err"] is not None)
+    return (f"{r['engine']} {r['shape']} R {r['R']} n_grid {r['n_grid']} {r['sampling']} mu {r['mu']} (k "
+            f"{r['k']:.3f}, t* {r['t_star_want']:.3f} s): {errs}; {r['problem'] or 'ok'} [{r['wall_s']:.0f} s]")
 
 
 # --------------------------------------------------------------------------- soft blocks on the belt
@@ -171,72 +171,11 @@ def block(engine: str, shape: str, contact: str, n_grid: int, mu: float, frictio
             "problem": problem(want, fig), "wall_s": time.time() - t0}
 
 
-# --------------------------------------------------------------------------- the turntable
-#: The turntable's spin (rad/s, about z), the ball's start off its axis (m), the run (s), its top's world centre (m).
-OMEGA, R0, TURN_T = 3.0, 0.1, 1.0
-AXIS = np.array([0.3, 0.3, 0.15])
-
-
-def turntable_collider(mu: float, n_grid: int, spin: tuple = (0.0, 0.0, OMEGA), cls=None):
-    """A square plate 1.0 x 1.0 x 0.1 m turning at ``spin`` (rad/s) about the vertical through ``AXIS`` (its top
-    face's centre; ``[[collider]] angular_velocity``), friction ``mu``. ``cls``: a :class:`Collider` subclass (the
-    broken variants)."""
-    import dataclasses
-    from gasp_core.colliders.model import Motion
-    from gasp_core.colliders.sdf import SDF_SPACING, collider_from_triangles
-    tri = (np.array([0.0, 0.0, -0.05]) + _CORNERS * np.array([0.5, 0.5, 0.05]))[_FACES]
-    col = collider_from_triangles(tri, SDF_SPACING * BOX / n_grid, name="turntable", friction=mu, position=AXIS,
-                                  motion=Motion(angular_velocity=spin))
-    return col if cls is None else cls(**{f.name: getattr(col, f.name) for f in dataclasses.fields(col)})
-
-
-def turntable_figures(c: np.ndarray, k: float, t_from: float) -> dict:
-    """The ball's orbit about the axis from its per-frame centres ``c``: ``rate`` (rad/s, the slope of its angle
-    about the axis fitted from ``t_from`` s), ``r`` (m, its mean distance from the axis over those frames) and the
-    closed form's (Ehrlich & Tuszynski 1995, Am. J. Phys. 63, 351: a rolling ball's centre circles the axis at
-    ``k Omega / (1 + k)``, 2/7 of the table's for a solid sphere, at the radius it started at)."""
-    t = np.arange(len(c)) / FPS
-    d = c[:, :2] - AXIS[:2]
-    ang = np.unwrap(np.arctan2(d[:, 1], d[:, 0]))
-    sel = t >= t_from
-    return {"rate": float(np.polyfit(t[sel], ang[sel], 1)[0]), "r": float(np.linalg.norm(d[sel], axis=1).mean()),
-            "rate_want": k * OMEGA / (1.0 + k), "r_want": R0}
-
-
-def turntable(engine: str, radius: float, n_grid: int, mu: float, friction: float | None = None, cls=None,
-              output=None) -> dict:
-    """A rigid ball (``roll_family88.ball``) set at rest ``R0`` off the axis of the turntable of friction ``mu``;
-    :func:`turntable_figures` from twice the slip's end on, with ``problem`` (None within ``test_rolling.TOL``,
-    two-sided, on the rate and the radius). ``friction``, ``output``: the broken variants (:func:`measure`'s); ``cls``
-    (:func:`turntable_collider`'s) another."""
-    from gasp_core.seam.setup import Material
-    from gasp_core.testing.helpers import make_setup
-    x, vol, _ = RF.body("ball", radius, n_grid, "fibonacci")
-    k = RF.inertia_share(x, vol, radius)
-    x = x - (vol[:, None] * x).sum(0) / vol.sum() + AXIS + np.array([R0, 0.0, radius])
-    st = make_setup(x, vol, Material("jelly", model="rigid", E=1.0e10, nu=0.3, rho=700.0), lo=np.zeros(3),
-                    hi=np.full(3, BOX), n_grid=n_grid, frame_dt=1.0 / FPS)
-    st.colliders = [turntable_collider(mu if friction is None else friction, n_grid, cls=cls)]
-    t0 = time.time()
-    c = rl.trace(engine, st, TURN_T)[0]
-    c = c if output is None else output(c)
-    fig = turntable_figures(c, k, 2.0 * closed_form(k, mu, OMEGA * R0)["t_star"])
-    return {"engine": engine, "R": radius, "n_grid": n_grid, "mu": mu, "k": k, **fig,
-            "problem": turntable_problem(fig), "wall_s": time.time() - t0}
-
-
-def turntable_problem(fig: dict) -> str | None:
-    """None when the orbit's rate and radius are within ``test_rolling.TOL`` of the closed form (two-sided)."""
-    bad = [f"{key} {fig[key]:.5g} against {fig[key + '_want']:.5g} ({100 * (fig[key] / fig[key + '_want'] - 1):+.2f} %)"
-           for key in ("rate", "r") if abs(fig[key] / fig[key + "_want"] - 1.0) > rl.TOL]
-    return "; ".join(bad) or None
-
-
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--engine", default="warp_mpm")
     ap.add_argument("--shapes", default="ball,cylinder", help="ball, cylinder or both (comma-separated)")
-    ap.add_argument("--parts", default="belt,turntable,blocks", help="belt, turntable, blocks (comma-separated)")
+    ap.add_argument("--parts", default="belt,blocks", help="belt, blocks or both (comma-separated)")
     ap.add_argument("--round-collider", type=int, default=1, help="gasp_core.mpm.round_ground.ROUND_COLLIDER")
     ap.add_argument("--out", default=None, help="a new JSON file for the rows (refused if it exists)")
     a = ap.parse_args(argv)
@@ -251,12 +190,6 @@ def main(argv=None) -> int:
             for mu in MUS:
                 rows.append(row(a.engine, shape, radius, n_grid, mu, sampling))
                 print(report(rows[-1]), flush=True)
-    for radius in RADII if "turntable" in a.parts else ():
-        for n_grid in GRIDS:
-            for mu in MUS:
-                rows.append(turntable(a.engine, radius, n_grid, mu))
-                print(f"{a.engine} turntable R {radius} n_grid {n_grid} mu {mu}: rate {rows[-1]['rate']:.4f} against "
-                      f"{rows[-1]['rate_want']:.4f}, r {rows[-1]['r']:.4f}; {rows[-1]['problem'] or 'ok'}", flush=True)
     for shape in BLOCKS if "blocks" in a.parts else ():
         for contact in CONTACTS:
             for n_grid in BLOCK_GRIDS:
