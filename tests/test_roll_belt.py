@@ -10,17 +10,18 @@ at 0.5 s.
 
 - **The family** (slow, both engines): balls and cylinders of R 0.05 and 0.1 m at n_grid 32 and 48 (a 0.6 m box), the
   5 cm body at n_grid 48 with ``roll_family88``'s other samplings of its Gaussians, mu 0.05 and 0.5.
-- **Jelly blocks on the belt** (issue 67 item 3 on a moving collider): ``tests/test_elastic_slope.py``'s jelly (E 1e5
-  Pa) as its flat block (15 x 15 x 5 cm) and round 77's 10 cm cube, at rest on the belt, on the particle and the grid
-  contact. Coulomb: the centre accelerates at ``mu g`` until it rides the belt at ``t* = U / (mu g)``; then it keeps
-  ``U``. The family (slow): both shapes and contacts, n_grid 24 and 48, mu 0.1 and 0.4.
-- **The default tier**: the 10 cm ball slipping (mu 0.05) on the belt and the flat jelly block (mu 0.1, n_grid 24) on
-  both contacts, on both engines; the belt's and the block's catches. Colliders that turn: ``tests/test_roll_spin.py``.
+- **Blocks on the belt** (issue 67 items 1 and 3 on a moving collider): ``tests/test_elastic_slope.py``'s jelly (E
+  1e5 Pa) as its flat block (15 x 15 x 5 cm) and round 77's 10 cm cube, at rest on the belt, on the particle and the
+  grid contact, and the same blocks rigid (``tests/test_rigid_slope.py``'s hardwood). Coulomb: the centre accelerates
+  at ``mu g`` until it rides the belt at ``t* = U / (mu g)``; then it keeps ``U``. The family (slow): both shapes,
+  the three kinds, n_grid 24 and 48, mu 0.1 and 0.4.
+- **The default tier**: the 10 cm ball slipping (mu 0.05) on the belt and the flat block (mu 0.1, n_grid 24) of each
+  kind, on both engines; the belt's and the block's catches. Colliders that turn: ``tests/test_roll_spin.py``.
 - **Catches**: a belt without friction (the body stays put), an engine that ignores ``mu`` (the collider's friction
   0.4 whatever the scene says), one that holds a body still while it is slower than 0.1 m/s
   (``slopes.rest_brake``), round 88's contact on the points (``ROUND_COLLIDER`` 0: the 5 cm ball at n_grid 48 rolls
-  15 % fast, warp_mpm), and figures 6 % off; for the jelly block a frictionless belt, one that ignores ``mu``, the
-  rest brake and figures 6 % off, on both contacts.
+  15 % fast, warp_mpm), and figures 6 % off; for the block of each kind a frictionless belt, one that ignores
+  ``mu``, the rest brake and figures 6 % off.
 """
 from __future__ import annotations
 
@@ -77,35 +78,38 @@ def test_the_belt_check_catches_broken_engines(monkeypatch):
     assert not missed, f"the belt's check misses {missed}"
 
 
-# --------------------------------------------------------------------------- jelly blocks on the belt
+# --------------------------------------------------------------------------- blocks on the belt
+KINDS = [pytest.param(m, c, id=f"{m}-{c or 'own'}") for m, c in RB.BLOCK_KINDS]
+
+
 @pytest.mark.parametrize("engine", ENGINES)
-@pytest.mark.parametrize("contact", RB.CONTACTS)
-def test_a_jelly_block_on_a_moving_belt_slips_at_mu_g_then_rides_it(engine, contact):
+@pytest.mark.parametrize("model,contact", KINDS)
+def test_a_block_on_a_moving_belt_slips_at_mu_g_then_rides_it(engine, model, contact):
     pytest.importorskip(f"gasp_{engine}")
-    r = RB.block(engine, "block", contact, 24, 0.1)
-    assert r["problem"] is None, f"{engine} {contact}: {r['problem']}"
+    r = RB.block(engine, "block", contact, 24, 0.1, model=model)
+    assert r["problem"] is None, f"{engine} {model} {contact}: {r['problem']}"
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("engine", ENGINES)
-@pytest.mark.parametrize("contact", RB.CONTACTS)
-def test_jelly_blocks_on_a_moving_belt_across_the_family(engine, contact):
+@pytest.mark.parametrize("model,contact", KINDS)
+def test_blocks_on_a_moving_belt_across_the_family(engine, model, contact):
     pytest.importorskip(f"gasp_{engine}")
     bad = [f"{shape} n_grid {n} mu {mu}: {p}" for shape in RB.BLOCKS for n in RB.BLOCK_GRIDS for mu in RB.BLOCK_MUS
-           if (p := RB.block(engine, shape, contact, n, mu)["problem"]) is not None]
-    assert not bad, f"{engine} {contact}: {bad}"
+           if (p := RB.block(engine, shape, contact, n, mu, model=model)["problem"]) is not None]
+    assert not bad, f"{engine} {model} {contact}: {bad}"
 
 
-@pytest.mark.parametrize("contact", RB.CONTACTS)
-def test_the_jelly_block_check_catches_broken_engines(contact):
+@pytest.mark.parametrize("model,contact", KINDS)
+def test_the_block_check_catches_broken_engines(model, contact):
     pytest.importorskip("gasp_warp_mpm")
     case = ("warp_mpm", "block", contact, 24, 0.1)
-    r = RB.block(*case)
+    r = RB.block(*case, model=model)
     want = {"a": r["a_want"], "v": r["v_want"]}
-    caught = {"frictionless": RB.block(*case, friction=0.0)["problem"],
-              "ignores mu": RB.block(*case, friction=0.4)["problem"],
-              "rest brake": RB.block(*case, output=lambda c: rest_brake(c, RB.FPS))["problem"],
+    caught = {"frictionless": RB.block(*case, friction=0.0, model=model)["problem"],
+              "ignores mu": RB.block(*case, friction=0.4, model=model)["problem"],
+              "rest brake": RB.block(*case, output=lambda c: rest_brake(c, RB.FPS), model=model)["problem"],
               **{name: RB.problem(want, {"a": f * r["a"], "v": f * r["v"]}) for name, f in (("6 % high", 1.06),
                                                                                            ("6 % low", 0.94))}}
     missed = [k for k, v in caught.items() if v is None]
-    assert not missed, f"{contact}: the block's check misses {missed}"
+    assert not missed, f"{model} {contact}: the block's check misses {missed}"

@@ -13,9 +13,10 @@ centre's travel over the frames within ``0.8 t*``, where those are ``MIN_FIT_FRA
 ``omega R`` at ``T`` s. The family: R 0.05 and 0.1 m, n_grid 32 and 48, mu 0.05 and 0.5, and the 5 cm body at n_grid
 48 with ``roll_family88``'s other samplings.
 
-**Jelly blocks on the belt** (``--parts blocks``, issue 67 item 3): ``tests/test_elastic_slope.py``'s jelly (E 1e5 Pa)
-as its flat block and round 77's cube, on the particle and the grid contact (:func:`block`). Colliders that turn (a
-turntable, a drum): ``roll_spin90.py``.
+**Blocks on the belt** (``--parts blocks``, issue 67 items 1 and 3): ``tests/test_elastic_slope.py``'s jelly (E 1e5
+Pa) as its flat block and round 77's cube, on the particle and the grid contact, and the same blocks rigid
+(``tests/test_rigid_slope.py``'s hardwood), each slipping at ``mu g`` until it rides the belt (:func:`block`).
+Colliders that turn (a turntable, a drum): ``roll_spin90.py``.
 
 Each figure within ``test_rolling.TOL`` (5 %, two-sided) of its closed form.
 ``python benchmarks/studies/roll_belt90.py --engine warp_mpm --parts belt --out
@@ -137,24 +138,30 @@ def report(r: dict) -> str:
 #: The jelly of ``tests/test_elastic_slope.py`` and its two blocks (m): the issue's flat block and round 77's cube.
 BLOCKS = {"block": (0.15, 0.15, 0.05), "cube": (0.1, 0.1, 0.1)}
 BLOCK_GRIDS, BLOCK_MUS, CONTACTS = (24, 48), (0.1, 0.4), ("particle", "grid")
+#: The blocks' kinds: the jelly on each contact, and the rigid block (its own contact).
+BLOCK_KINDS = (("elastic", "particle"), ("elastic", "grid"), ("rigid", None))
 #: The slipping fit starts after the first frames (the block settles onto the plate; ``test_rigid_slope``'s 0.05 s).
 BLOCK_FIT_FROM = 0.05
 
 
-def block(engine: str, shape: str, contact: str, n_grid: int, mu: float, friction: float | None = None,
-          output=None) -> dict:
+def block(engine: str, shape: str, contact: str | None, n_grid: int, mu: float, friction: float | None = None,
+          output=None, model: str = "elastic") -> dict:
     """A jelly block (E 1e5 Pa, nu 0.3, rho 1000) of ``BLOCKS[shape]`` at rest on the belt, on the ``contact``
-    model. Coulomb: its centre accelerates at ``mu g`` until it moves with the belt at ``t* = U / (mu g)``, then
-    keeps ``U``. Figures: ``a`` (a parabola over the frames from ``BLOCK_FIT_FROM`` to ``0.8 t*``, where those are
-    ``MIN_FIT_FRAMES`` or more) and ``v`` (the centre's speed over the last frame), with ``problem`` (None within
-    ``test_rolling.TOL``, two-sided). ``friction``, ``output``: the broken variants (:func:`measure`'s)."""
+    model (None: the default); ``model = "rigid"``: the hardwood block of ``tests/test_rigid_slope.py`` (E 1e10 Pa,
+    rho 700, rigid) in its place. Coulomb: its centre accelerates at ``mu g`` until it moves with the belt at
+    ``t* = U / (mu g)``, then keeps ``U``. Figures: ``a`` (a parabola over the frames from ``BLOCK_FIT_FROM`` to
+    ``0.8 t*``, where those are ``MIN_FIT_FRAMES`` or more) and ``v`` (the centre's speed over the last frame), with
+    ``problem`` (None within ``test_rolling.TOL``, two-sided). ``friction``, ``output``: the broken variants
+    (:func:`measure`'s)."""
     from gasp_core.seam.setup import Material
     from gasp_core.testing.helpers import box_points, make_setup
     side = np.asarray(BLOCKS[shape])
     lo = START - np.array([0.05, side[1] / 2, 0.0])
     x, vol = box_points(lo, lo + side, BOX / n_grid / 2)
-    st = make_setup(x, vol, Material("jelly", model="elastic", E=1.0e5, nu=0.3, rho=1000.0), lo=np.zeros(3),
-                    hi=np.full(3, BOX), n_grid=n_grid, frame_dt=1.0 / FPS, options={"contact": contact})
+    mat = (Material("jelly", model="elastic", E=1.0e5, nu=0.3, rho=1000.0) if model == "elastic"
+           else Material("jelly", model="rigid", E=1.0e10, nu=0.3, rho=700.0))
+    st = make_setup(x, vol, mat, lo=np.zeros(3), hi=np.full(3, BOX), n_grid=n_grid, frame_dt=1.0 / FPS,
+                    options={} if contact is None else {"contact": contact})
     st.n_render = 0
     st.colliders = [belt_collider(mu if friction is None else friction, n_grid)]
     t0 = time.time()
@@ -165,7 +172,7 @@ def block(engine: str, shape: str, contact: str, n_grid: int, mu: float, frictio
     fig = {"a": 2.0 * float(np.polyfit(t[sel], c[sel, 0], 2)[0]) if sel.sum() >= MIN_FIT_FRAMES else None,
            "v": float(c[-1, 0] - c[-2, 0]) * FPS}
     want = {"a": mu * rl.G, "v": U}
-    return {"engine": engine, "shape": shape, "contact": contact, "n_grid": n_grid, "mu": mu, **fig,
+    return {"engine": engine, "model": model, "shape": shape, "contact": contact, "n_grid": n_grid, "mu": mu, **fig,
             **{f"{key}_want": val for key, val in want.items()},
             **{f"{key}_err": (fig[key] / want[key] - 1.0 if fig[key] is not None else None) for key in want},
             "problem": problem(want, fig), "wall_s": time.time() - t0}
@@ -175,7 +182,8 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--engine", default="warp_mpm")
     ap.add_argument("--shapes", default="ball,cylinder", help="ball, cylinder or both (comma-separated)")
-    ap.add_argument("--parts", default="belt,blocks", help="belt, blocks or both (comma-separated)")
+    ap.add_argument("--parts", default="belt,blocks", help="belt, blocks (elastic and rigid), elastic, rigid "
+                                                           "(comma-separated)")
     ap.add_argument("--round-collider", type=int, default=1, help="gasp_core.mpm.round_ground.ROUND_COLLIDER")
     ap.add_argument("--out", default=None, help="a new JSON file for the rows (refused if it exists)")
     a = ap.parse_args(argv)
@@ -190,16 +198,17 @@ def main(argv=None) -> int:
             for mu in MUS:
                 rows.append(row(a.engine, shape, radius, n_grid, mu, sampling))
                 print(report(rows[-1]), flush=True)
-    for shape in BLOCKS if "blocks" in a.parts else ():
-        for contact in CONTACTS:
+    kinds = [(m, c) for m, c in BLOCK_KINDS if m in a.parts.replace("blocks", "elastic,rigid")]
+    for model, contact in kinds:
+        for shape in BLOCKS:
             for n_grid in BLOCK_GRIDS:
                 for mu in BLOCK_MUS:
-                    rows.append(block(a.engine, shape, contact, n_grid, mu))
+                    rows.append(block(a.engine, shape, contact, n_grid, mu, model=model))
                     r = rows[-1]
                     errs = ", ".join(f"{key} {100 * r[key + '_err']:+.2f} %" for key in ("a", "v")
                                      if r[key + "_err"] is not None)
-                    print(f"{a.engine} jelly {shape} {contact} n_grid {n_grid} mu {mu}: {errs}; {r['problem'] or 'ok'} "
-                          f"[{r['wall_s']:.0f} s]", flush=True)
+                    print(f"{a.engine} {model} {shape} {contact} n_grid {n_grid} mu {mu}: {errs}; "
+                          f"{r['problem'] or 'ok'} [{r['wall_s']:.0f} s]", flush=True)
     RF.write_rows(out, rows)
     return 0
 
