@@ -1,0 +1,120 @@
+"""Round 90 (issue 67 items 1-2, "body on body"; ``docs/rigid.md`` "Round 90: a round body on another rigid body"):
+``roll_family88.py``'s rigid balls and solid cylinders (radii, grids, the ways their Gaussians sample them) set on a
+rigid slab instead of the ground, judged by ``test_rolling``'s two-sided check (5 %) against the closed forms of each
+body's own inertia.
+
+The scene is ``ball_slope_rigid.py``'s (round 65): a rigid slab 32 x 24 x 3 cm lies on a ground of friction 1 (above
+``tan 20 deg``: it stays) in a 0.48 m box, gravity tilted 20 degrees about y; the body (hardwood, E 1e10 Pa, rho 700,
+``model = "rigid"``) starts at rest on it, the pair's friction ``mu`` (both bodies' ``friction``). The pair meets through
+the rigid pair law (``gasp_core.mpm.rigid_friction.pair_contact``: the nodes' contact, the support tables' flatness and
+contact plane), not through round 88-89's exact shapes, which the ground and the colliders use.
+The grid: n_grid 24, 32 and 48 in the 0.48 m box (the cells of ``roll_family88``'s 30, 40 and 60 in its 0.6 m box).
+``python benchmarks/studies/roll_pair90.py --engine warp_mpm --out benchmarks/results/roll_pair90_warp.json``
+(refused if the file exists).
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT / "tests"))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import roll_family88 as RF  # noqa: E402
+import test_rolling as rl  # noqa: E402
+
+SIDE, FPS = 0.48, 60
+RADII, GRIDS = (0.05, 0.1), (24, 32, 48)
+SAMPLED_AT = ((0.05, 48),)
+
+
+def family() -> list[tuple[float, int, str]]:
+    """``(radius m, n_grid, sampling)``: every radius and grid on the test's sampling, the others on the 5 cm body at
+    n_grid 48."""
+    return [(r, n, "fibonacci") for r in RADII for n in GRIDS] + [(r, n, s) for r, n in SAMPLED_AT
+                                                                      for s in RF.SAMPLINGS if s != "fibonacci"]
+
+
+def setup(shape: str, radius: float, n_grid: int, sampling: str, mu: float):
+    """``(SimSetup, k, n_render)``: body 0 the round body (its Gaussians first), body 1 the slab."""
+    from gasp_core.seam.setup import Boundary, Material, SimSetup
+    from gasp_core.testing.helpers import box_points
+    dx = SIDE / n_grid
+    x, vol, n_render = RF.body(shape, radius, round(n_grid * 0.6 / SIDE), sampling)
+    k = RF.inertia_share(x, vol, radius)
+    x = x - (vol[:, None] * x).sum(0) / vol.sum() + np.array([-0.06, 0.0, 0.03 + radius])
+    xs, pvs = box_points([-0.12, -0.12, 0.0], [0.20, 0.12, 0.03], dx / 2)
+    th = np.radians(rl.THETA)
+    mats = [Material("jelly", model="rigid", E=1.0e10, nu=0.3, rho=700.0, friction=mu) for _ in range(2)]
+    lo = np.array([-0.20, -SIDE / 2, -3 * dx])
+    s = SimSetup(x=np.concatenate([x, xs]), v=0.0, p_vol=np.r_[vol, np.full(len(xs), pvs)],
+                 body_id=np.r_[np.zeros(len(x), int), np.ones(len(xs), int)], materials=mats,
+                 gravity=rl.G * np.array([np.sin(th), 0.0, -np.cos(th)]), domain_lo=lo, domain_hi=lo + SIDE,
+                 n_grid=n_grid, frame_dt=1.0 / FPS, boundaries=[Boundary("ground", height=0.0, friction=1.0)])
+    s.n_render = n_render
+    return s, k, n_render
+
+
+def figures(engine: str, s, radius: float) -> dict:
+    """``a`` (m/s^2: a parabola fitted to the body's centre along x from ``test_rolling.FIT_FROM`` s), ``wR`` (its
+    spin about y times ``radius`` at ``test_rolling.T``), ``v`` (its speed along x then) and ``slab`` (the slab's
+    largest point speed over the run, m/s)."""
+    from gasp_core.seam.build import build_engine
+    from gasp_core.seam.plugins import get_engine
+    b, m = np.asarray(s.body_id), np.asarray(s.p_mass, np.float64)
+    mb = m[b == 0]
+    e = build_engine(get_engine(engine), s)
+    cs, vs, ws, slab = [], [], [], 0.0
+    for _ in range(round(rl.T * FPS)):
+        e.step_frame()
+        X, V = e.positions().astype(np.float64), e.velocities().astype(np.float64)
+        xb, vb = X[b == 0], V[b == 0]
+        c, vc = (mb[:, None] * xb).sum(0) / mb.sum(), (mb[:, None] * vb).sum(0) / mb.sum()
+        r = xb - c
+        L = (mb[:, None] * np.cross(r, vb - vc)).sum(0)
+        inertia = np.eye(3) * (mb * (r * r).sum(1)).sum() - np.einsum("n,ni,nj->ij", mb, r, r)
+        cs.append(c)
+        vs.append(vc)
+        ws.append(np.linalg.solve(inertia, L))
+        slab = max(slab, float(np.abs(V[b == 1]).max()))
+    e.close()
+    c, t = np.array(cs), np.arange(1, len(cs) + 1) / FPS
+    sel = t >= rl.FIT_FROM
+    return {"a": 2.0 * float(np.polyfit(t[sel], c[sel, 0], 2)[0]), "wR": float(ws[-1][1]) * radius,
+            "v": float(vs[-1][0]), "slab": slab}
+
+
+def row(engine: str, shape: str, radius: float, n_grid: int, sampling: str, mu: float) -> dict:
+    s, k, n_render = setup(shape, radius, n_grid, sampling, mu)
+    t0 = time.time()
+    fig = figures(engine, s, radius)
+    return {**RF.record(engine, shape, radius, n_grid, sampling, n_render, mu, k, fig, time.time() - t0),
+            "slab": fig["slab"]}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--engine", default="warp_mpm")
+    ap.add_argument("--shapes", default="ball,cylinder", help="ball, cylinder or both (comma-separated)")
+    ap.add_argument("--out", default=None, help="a new JSON file for the rows (refused if it exists)")
+    a = ap.parse_args(argv)
+    out = Path(a.out) if a.out else None
+    if out is not None and out.exists():
+        ap.error(f"--out {out} exists; give a new file")
+    rows = []
+    for shape in a.shapes.split(","):
+        for radius, n_grid, sampling in family():
+            for mu in RF.MUS:
+                rows.append(row(a.engine, shape, radius, n_grid, sampling, mu))
+                print(RF.report(rows[-1]), f"(slab {rows[-1]['slab']:.4f} m/s)", flush=True)
+    RF.write_rows(out, rows)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
