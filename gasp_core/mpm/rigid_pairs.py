@@ -91,13 +91,24 @@ def pair_data(setup) -> tuple:
     return body_boxes(setup), pair_frictions(setup), rc
 
 
+#: Round 90: a round rigid body (``gasp_core.mpm.round_ground.ground_shapes``) meets another rigid body on its exact
+#: shape: its support table rows are the shape's, and the pair law takes the contact on its surface, not midway between
+#: the two bodies' supports (``docs/rigid.md`` "Round 90: a round body on another rigid body"). 0: round 65's tables of
+#: its points and the midway plane (the broken variant the catches use; a Python switch, read at build time).
+ROUND_PAIR = 1
+
+
 def support_data(setup):
-    """``(dirs, h, curv, delta, nd)``: every rigid body's support table (round 65,
+    """``(dirs, h, curv, delta, nd, round)``: every rigid body's support table (round 65,
     ``gasp_core.mpm.rigid_support.support_table``, of its points with mass; spacing ``p_vol ** (1/3)``), body ``b``'s
-    rows ``b * nd`` to ``(b + 1) * nd``: directions (n, 3), supports (n,) m, curvature tensors (n, 3, 3) 1/m, and the
-    band per body (m; 0: no table, its contacts taken as a face's). None with fewer than two rigid bodies."""
+    rows ``b * nd`` to ``(b + 1) * nd``: directions (n, 3), supports (n,) m, curvature tensors (n, 3, 3) 1/m, the
+    band per body (m; 0: no table, its contacts taken as a face's) and per body 1.0 where it is a round body (a
+    sphere or solid cylinder, ``gasp_core.mpm.round_ground.ground_shapes``) else 0.0 (round 90: its rows are its exact
+    shape's, ``rigid_support.round_table``, and the pair law takes the contact on its surface). None with fewer than
+    two rigid bodies."""
     from gasp_core.mpm.rigid import body_frames, rigid_mask
-    from gasp_core.mpm.rigid_support import support_table, table_directions
+    from gasp_core.mpm.rigid_support import round_table, support_table, table_directions
+    from gasp_core.mpm.round_ground import ground_shapes
     rigid = rigid_mask(setup.materials)
     if rigid.sum() < 2:
         return None
@@ -108,13 +119,17 @@ def support_data(setup):
     X0 = body_frames(setup.x, mass, body, rigid)[1]
     nb, nd = len(rigid), len(table_directions(np.zeros((1, 3))))
     dirs, h, curv, delta = np.zeros((nb * nd, 3)), np.ones(nb * nd), np.zeros((nb * nd, 3, 3)), np.zeros(nb)
+    shapes, rnd = ground_shapes(setup), np.zeros(nb)
     for b in np.flatnonzero(rigid):
         sel = (body == b) & (mass > 0.0)
         if sel.any():
             D, H, C, delta[b] = support_table(X0[sel], float(np.mean(vol[sel])) ** (1.0 / 3.0))
+            if ROUND_PAIR and shapes[b, 0] > 0.0:   # round 90: a sphere or cylinder on its exact shape
+                H, C = round_table(D, shapes[b])
+                rnd[b] = 1.0
             rows = slice(b * nd, (b + 1) * nd)
             dirs[rows], h[rows], curv[rows] = D, H, C[:, [0, 1, 2, 1, 3, 4, 2, 4, 5]].reshape(-1, 3, 3)
-    return dirs, h, curv, delta, nd
+    return dirs, h, curv, delta, nd, rnd
 
 
 def body_boxes(setup) -> np.ndarray:

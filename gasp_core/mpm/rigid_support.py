@@ -82,6 +82,41 @@ def support_table(X0: np.ndarray, spacing: float, n: int = N_DIRS):
     return dirs, h, curv, delta
 
 
+def round_table(dirs: np.ndarray, shape: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A round rigid body's exact support and curvature over ``dirs`` (round 90: a ball or cylinder on another rigid
+    body meets it on its exact shape, as on the ground, ``gasp_core.mpm.round_ground``).
+
+    Parameters
+    ----------
+    dirs : ndarray, shape (n, 3)
+        Unit directions in the body's rest frame.
+    shape : ndarray, shape (5,)
+        ``gasp_core.mpm.round_ground.ground_shapes``'s row: ``[R, h, e0]`` (m, m, unit axis; ``h`` 0 a sphere).
+
+    Returns
+    -------
+    h, curv : ndarray, shapes (n,) m and (n, 6) 1/m
+        :func:`support_table`'s columns: a sphere's support ``R`` and curvature ``(1 - d d^T) / R``; a solid
+        cylinder's support the larger of its side's ``R |d - (d . e) e|`` and its end's ``h |d . e|`` and curvature
+        ``q q^T / R`` for ``q = e x d`` around its side (0 towards an end, a face). The pair law reads the table at its
+        direction nearest the contact's normal: a cylinder on its side, turned as it rolls, reads a direction a few
+        degrees off its side, where the exact support ``R cos + h sin`` (its rim's) would put the contact ``h sin``
+        (7 mm for a 10 cm half-length 4 degrees off) beyond its side; the side's and the end's alone are exact for
+        contacts on the side or an end, not on the rim.
+    """
+    R, hh, e = float(shape[0]), float(shape[1]), np.asarray(shape[2:5], np.float64)
+    d = np.asarray(dirs, np.float64)
+    if hh <= 0.0:
+        h = np.full(len(d), R)
+        K = (np.eye(3)[None] - d[:, :, None] * d[:, None, :]) / R
+    else:
+        de = d @ e
+        h = np.maximum(R * np.sqrt(np.clip(1.0 - de * de, 0.0, 1.0)), hh * np.abs(de))   # its side's, its end's
+        q = np.cross(e[None], d)
+        K = q[:, :, None] * q[:, None, :] / R   # |q| = sin: the side's curvature fades to the end's face
+    return h, K[:, [0, 0, 0, 1, 1, 2], [0, 1, 2, 1, 2, 2]]
+
+
 def band_curvature(P: np.ndarray, d: np.ndarray, top: float) -> np.ndarray:
     """The curvature tensor (3, 3), 1/m, of the surface of outward normal ``d`` (unit) whose points within the band
     are ``P`` (k, 3), m (``top`` the farthest's ``d . x``): the least-squares fit of their depth ``z = top - d . x``

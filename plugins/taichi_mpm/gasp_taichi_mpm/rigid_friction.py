@@ -24,7 +24,7 @@ class RigidFriction:
 
     def set_support(self, data) -> None:
         """The bodies' support tables (``gasp_core.mpm.rigid_pairs.support_data``: directions, supports, curvature
-        tensors, bands, rows per body ``nd``) as fields ``sup_*``; None: no table for any body (every band 0: every
+        tensors, bands, rows per body ``nd``, round 90's round bodies) as fields ``sup_*``; None: no table for any body (every band 0: every
         contact a face's), zero fields allocated once and nothing uploaded (round 66, docs/reliability.md: the empty
         tables' eight ``from_numpy`` calls, each a Taichi kernel turned into IR, cost about 0.4 s of every engine
         built; with every band 0 no table row is read: ``body_row`` loops ``sup_nd`` = 0 times, ``flat_at`` reads
@@ -38,14 +38,17 @@ class RigidFriction:
                 self.sup_h = ti.field(ti.f64, shape=nb)
                 self.sup_curv = ti.Matrix.field(3, 3, ti.f64, shape=nb)
                 self.sup_delta = ti.field(ti.f64, shape=nb)
+                self.sup_round = ti.field(ti.f64, shape=nb)
             return
-        dirs, h, curv, delta, self.sup_nd = data
+        dirs, h, curv, delta, self.sup_nd, rnd = data
         self.sup_empty = False
         self.sup_dirs = ti.Vector.field(3, ti.f64, shape=len(h))
         self.sup_h = ti.field(ti.f64, shape=len(h))
         self.sup_curv = ti.Matrix.field(3, 3, ti.f64, shape=len(h))
         self.sup_delta = ti.field(ti.f64, shape=len(delta))
-        for f, a in ((self.sup_dirs, dirs), (self.sup_h, h), (self.sup_curv, curv), (self.sup_delta, delta)):
+        self.sup_round = ti.field(ti.f64, shape=len(rnd))
+        for f, a in ((self.sup_dirs, dirs), (self.sup_h, h), (self.sup_curv, curv), (self.sup_delta, delta),
+                     (self.sup_round, rnd)):
             f.from_numpy(np.asarray(a, np.float64))
 
     @ti.func
@@ -171,8 +174,10 @@ class RigidFriction:
     @ti.func
     def roll_point(self, a, b, row_a, row_b, n, x_c):
         """``x_c`` moved along ``n`` onto where the bodies' surfaces meet (``gasp_core.mpm.rigid_support.
-        contact_plane``; ``row_a``, ``row_b`` their table rows towards each other)."""
-        plane = 0.5 * (self.rb_c[a].dot(n) + self.sup_h[row_a] + self.rb_c[b].dot(n) - self.sup_h[row_b])
+        contact_plane``; ``row_a``, ``row_b`` their table rows towards each other). Round 90: onto a round body's
+        own surface (``sup_round`` 1, its exact table), midway where both or neither are round."""
+        wa = 0.5 + 0.5 * (self.sup_round[a] - self.sup_round[b])
+        plane = wa * (self.rb_c[a].dot(n) + self.sup_h[row_a]) + (1.0 - wa) * (self.rb_c[b].dot(n) - self.sup_h[row_b])
         return x_c + (plane - x_c.dot(n)) * n
 
     @ti.kernel

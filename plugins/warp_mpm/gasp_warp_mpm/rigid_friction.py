@@ -148,7 +148,7 @@ def build_rigid_pair(Ft):
                    vel: wp.array(dtype=vec3d), spin: wp.array(dtype=vec3d), dt: wp.float64, dx: wp.float64,
                    mu: wp.float64, acc: wp.array(dtype=wp.float64), t_dirs: wp.array(dtype=vec3d),
                    t_h: wp.array(dtype=wp.float64), t_curv: wp.array(dtype=mat33d), t_delta: wp.array(dtype=wp.float64),
-                   nd: int):
+                   nd: int, t_round: wp.array(dtype=wp.float64)):
         a = int(1)
         if in_a[0] != 0:
             a = 0
@@ -184,7 +184,7 @@ def build_rigid_pair(Ft):
                 # (contact_plane): the contact point moved onto it, the slip taken there; f 1 as before
                 f = roll_flat(t_dirs, t_h, t_curv, t_delta, nd, a, b, RA, RB, n, ut, lt, vec3d())
                 if f < wp.float64(1.0):
-                    x_c = roll_point(t_dirs, t_h, nd, a, b, RA, RB, centre[a], centre[b], n, x_c)
+                    x_c = roll_point(t_dirs, t_h, t_round, nd, a, b, RA, RB, centre[a], centre[b], n, x_c)
                     rA, rB, ut = slip_at(x_c, VA, wA, centre[a], VB, wB, centre[b], n)
                     lt = wp.length(ut)
                     t = ut / wp.max(lt, wp.float64(1.0e-300))

@@ -121,8 +121,8 @@ def build_rigid_pairs_gpu(Ft):
               nb: int, mu: wp.array(dtype=wp.float64), acc: wp.array(dtype=wp.float64),
               lam: wp.array(dtype=wp.float64), sweeps: int, rows: wp.array(dtype=wp.int32),
               t_h: wp.array(dtype=wp.float64), t_curv: wp.array(dtype=mat33d), t_delta: wp.array(dtype=wp.float64),
-              isl_start: wp.array(dtype=wp.int32), isl_list: wp.array(dtype=wp.int32),
-              isl_n: wp.array(dtype=wp.int32)):
+              t_round: wp.array(dtype=wp.float64), isl_start: wp.array(dtype=wp.int32),
+              isl_list: wp.array(dtype=wp.int32), isl_n: wp.array(dtype=wp.int32)):
         i = wp.tid()
         if i >= isl_n[0]:
             return
@@ -130,7 +130,7 @@ def build_rigid_pairs_gpu(Ft):
         for _sweep in range(sweeps):
             for k in range(isl_start[i], isl_start[i + 1]):
                 pair_update(isl_list[k], nb, half, mass, inertia0, centre, rot, vel, spin, mu, acc, lam, rows, t_h,
-                            t_curv, t_delta)
+                            t_curv, t_delta, t_round)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def advance(centre: wp.array(dtype=vec3d), vel: wp.array(dtype=vec3d), V0: wp.array(dtype=vec3d),
@@ -160,7 +160,7 @@ def islands_launches(eng, Ft) -> list:
     prep, bodies, rank, islands, sweep, advance, clear = build_rigid_pairs_gpu(Ft)
     d, nb = eng.device, len(eng.setup.materials)
     ns = eng.pair_slots.shape[0]
-    t_dirs, t_h, t_curv, t_delta, nd = eng.rb_tables
+    t_dirs, t_h, t_curv, t_delta, nd, t_round = eng.rb_tables
     g = vec3d(*[float(x) for x in eng.setup.gravity])
     return [
         wp.launch(prep, dim=ns, device=d, record_cmd=True, inputs=[
@@ -175,7 +175,7 @@ def islands_launches(eng, Ft) -> list:
             eng.pair_isl_start, eng.pair_isl_fill, eng.pair_isl_list, eng.pair_isl_n, eng.pair_n_keep]),
         wp.launch(sweep, dim=nb, device=d, record_cmd=True, inputs=[
             eng.rb_M, eng.rb_I0, eng.rb_c, eng.rb_R, eng.rb_V, eng.rb_w, affine_dx(eng.dx), nb, eng.pair_mu,
-            eng.pair_acc, eng.pair_lam, int(SWEEPS), eng.pair_rows, t_h, t_curv, t_delta, eng.pair_isl_start,
+            eng.pair_acc, eng.pair_lam, int(SWEEPS), eng.pair_rows, t_h, t_curv, t_delta, t_round, eng.pair_isl_start,
             eng.pair_isl_list, eng.pair_isl_n]),
         wp.launch(advance, dim=nb, device=d, record_cmd=True, inputs=[eng.rb_c, eng.rb_V, eng.pair_V0, float(eng.dt)]),
         wp.launch(clear, dim=ns, device=d, record_cmd=True, inputs=[

@@ -70,7 +70,7 @@ def build_pair_update(Ft):
                     vel: wp.array(dtype=vec3d), spin: wp.array(dtype=vec3d), mu: wp.array(dtype=wp.float64),
                     acc: wp.array(dtype=wp.float64), lam: wp.array(dtype=wp.float64), rows: wp.array(dtype=wp.int32),
                     t_h: wp.array(dtype=wp.float64), t_curv: wp.array(dtype=mat33d),
-                    t_delta: wp.array(dtype=wp.float64)):
+                    t_delta: wp.array(dtype=wp.float64), t_round: wp.array(dtype=wp.float64)):
         a = s / nb
         b = s - a * nb
         n = vec3d(acc[7 * s + 4], acc[7 * s + 5], acc[7 * s + 6])
@@ -95,7 +95,7 @@ def build_pair_update(Ft):
             f = roll_flat_at(t_h, t_curv, t_delta, a, b, rows[2 * s], rows[2 * s + 1], rot[a], rot[b], n, ut, lt,
                              spin[a] - spin[b])
             if f < wp.float64(1.0):
-                x_c = roll_point_at(t_h, rows[2 * s], rows[2 * s + 1], centre[a], centre[b], n, x_c)
+                x_c = roll_point_at(t_h, t_round, a, b, rows[2 * s], rows[2 * s + 1], centre[a], centre[b], n, x_c)
                 rA, rB, ut = slip_at(x_c, vel[a], spin[a], centre[a], vel[b], spin[b], centre[b], n)
                 lt = wp.length(ut)
             eye = wp.identity(n=3, dtype=wp.float64)
@@ -165,7 +165,8 @@ def build_rigid_pairs(Ft):
                     order: wp.array(dtype=wp.int32), gravity: vec3d, sweeps: int, slots: wp.array(dtype=wp.int32),
                     count: wp.array(dtype=wp.int32), seen: wp.array(dtype=wp.int32), t_dirs: wp.array(dtype=vec3d),
                     t_h: wp.array(dtype=wp.float64), t_curv: wp.array(dtype=mat33d),
-                    t_delta: wp.array(dtype=wp.float64), nd: int, rows: wp.array(dtype=wp.int32)):
+                    t_delta: wp.array(dtype=wp.float64), nd: int, t_round: wp.array(dtype=wp.float64),
+                    rows: wp.array(dtype=wp.int32)):
         n_on = count[0]
         for q in range(n_on):   # the touching pairs, insertion-sorted by (-g . x_c, slot): bottom up, ties by slot
             s = slots[q]
@@ -188,7 +189,7 @@ def build_rigid_pairs(Ft):
         for _sweep in range(sweeps):
             for q in range(n_on):
                 pair_update(order[q], nb, half, mass, inertia0, centre, rot, vel, spin, mu, acc, lam, rows, t_h,
-                            t_curv, t_delta)
+                            t_curv, t_delta, t_round)
         for b in range(nb):
             centre[b] = centre[b] + dt * (vel[b] - V0[b])
         for q in range(n_on):   # the touching slots back to zero for the next substep

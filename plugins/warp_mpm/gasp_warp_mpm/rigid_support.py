@@ -18,14 +18,15 @@ FLAT_W = wp.constant(wp.float64(FLAT_TO - FLAT_FROM))
 
 
 def support_arrays(data, device, nb: int) -> tuple:
-    """``gasp_core.mpm.rigid_pairs.support_data``'s tables as Warp arrays (vec3d, float64, mat33d, float64 per body)
-    and ``nd``; ``data`` None: no table for any of the ``nb`` bodies (every band 0: every contact a face's)."""
+    """``gasp_core.mpm.rigid_pairs.support_data``'s tables as Warp arrays (vec3d, float64, mat33d, float64 per body),
+    ``nd`` and the round bodies (float64 per body, round 90); ``data`` None: no table for any of the ``nb`` bodies (every band 0: every contact a face's)."""
     if data is None:
         nb = max(int(nb), 1)
-        data = (np.zeros((nb, 3)), np.ones(nb), np.zeros((nb, 3, 3)), np.zeros(nb), 0)
-    dirs, h, curv, delta, nd = data
+        data = (np.zeros((nb, 3)), np.ones(nb), np.zeros((nb, 3, 3)), np.zeros(nb), 0, np.zeros(nb))
+    dirs, h, curv, delta, nd, rnd = data
     return (wp.array(dirs, dtype=vec3d, device=device), wp.array(h, dtype=wp.float64, device=device),
-            wp.array(curv, dtype=mat33d, device=device), wp.array(delta, dtype=wp.float64, device=device), int(nd))
+            wp.array(curv, dtype=mat33d, device=device), wp.array(delta, dtype=wp.float64, device=device), int(nd),
+            wp.array(rnd, dtype=wp.float64, device=device))
 
 
 @wp.func
@@ -83,17 +84,20 @@ def roll_flat(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), curv: 
 
 
 @wp.func
-def roll_point_at(h: wp.array(dtype=wp.float64), row_a: int, row_b: int, cA: vec3d, cB: vec3d, n: vec3d, x_c: vec3d):
-    # gasp_core.mpm.rigid_support.contact_plane: the contact point moved along n onto where the surfaces meet
-    plane = wp.float64(0.5) * (wp.dot(cA, n) + h[row_a] + wp.dot(cB, n) - h[row_b])
+def roll_point_at(h: wp.array(dtype=wp.float64), rnd: wp.array(dtype=wp.float64), a: int, b: int, row_a: int,
+                  row_b: int, cA: vec3d, cB: vec3d, n: vec3d, x_c: vec3d):
+    # gasp_core.mpm.rigid_support.contact_plane: the contact point moved along n onto where the surfaces meet;
+    # round 90: onto a round body's own surface (rnd 1, its exact table), midway where both or neither are round
+    wa = wp.float64(0.5) + wp.float64(0.5) * (rnd[a] - rnd[b])
+    plane = wa * (wp.dot(cA, n) + h[row_a]) + (wp.float64(1.0) - wa) * (wp.dot(cB, n) - h[row_b])
     return x_c + (plane - wp.dot(x_c, n)) * n
 
 
 @wp.func
-def roll_point(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), nd: int, a: int, b: int, RA: mat33d,
-               RB: mat33d, cA: vec3d, cB: vec3d, n: vec3d, x_c: vec3d):
+def roll_point(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), rnd: wp.array(dtype=wp.float64), nd: int,
+               a: int, b: int, RA: mat33d, RB: mat33d, cA: vec3d, cB: vec3d, n: vec3d, x_c: vec3d):
     # roll_point_at with the rows looked up
-    return roll_point_at(h, body_row(dirs, nd, a, RA, n), body_row(dirs, nd, b, RB, -n), cA, cB, n, x_c)
+    return roll_point_at(h, rnd, a, b, body_row(dirs, nd, a, RA, n), body_row(dirs, nd, b, RB, -n), cA, cB, n, x_c)
 
 
 @wp.func
