@@ -13,8 +13,8 @@ contact is taken on its surface (``gasp_core.mpm.rigid_pairs.ROUND_PAIR``).
   judged by ``test_rolling``'s two-sided 5 % check.
 - **The default tier**: the 5 cm cylinder at n_grid 32, rolling and slipping, on both engines.
 - **Catch**: round 65's tables and midway plane (``ROUND_PAIR`` 0) fail the 5 cm cylinder (warp_mpm).
-- The exact tables (NumPy): a sphere's support and curvature, a cylinder's side and end, and ``support_data``'s round
-  bodies.
+- The exact tables (NumPy): a sphere's support and curvature, a cylinder's side and end, ``support_data``'s round
+  bodies, and ``rigid_support.contact_plane``'s round rule.
 """
 from __future__ import annotations
 
@@ -31,7 +31,7 @@ import roll_pair90 as RP  # noqa: E402
 from slopes import ENGINES  # noqa: E402
 
 from gasp_core.mpm import rigid_pairs  # noqa: E402
-from gasp_core.mpm.rigid_support import flatness, round_table, table_directions  # noqa: E402
+from gasp_core.mpm.rigid_support import contact_plane, flatness, round_table, table_directions  # noqa: E402
 
 
 def _problem(engine: str, shape: str, radius: float, n_grid: int, sampling: str, mu: float) -> str | None:
@@ -87,3 +87,15 @@ def test_support_data_marks_the_round_bodies(monkeypatch):
     assert list(rnd) == [1.0, 0.0]
     monkeypatch.setattr(rigid_pairs, "ROUND_PAIR", 0)
     assert list(rigid_pairs.support_data(s)[-1]) == [0.0, 0.0]
+
+
+def test_the_contact_plane_is_on_the_round_bodys_surface():
+    """The NumPy rule the engines' pair laws follow: midway between two supports, on a round body's own (A or B)."""
+    d = table_directions(np.zeros((1, 3)))
+    ball = (d, *round_table(d, np.array([0.05, 0.0, 0.0, 0.0, 0.0])))
+    face = (d, np.full(len(d), 0.02), np.zeros((len(d), 6)))
+    n, I = np.array([0.0, 0.0, -1.0]), np.eye(3)
+    cA, cB = np.array([0.0, 0.0, 0.053]), np.array([0.0, 0.0, -0.02])   # the ball 3 mm over the face (its top z 0)
+    assert contact_plane(ball, I, cA, face, I, cB, n) == pytest.approx(-0.0015)          # midway: z = 1.5 mm
+    assert contact_plane(ball, I, cA, face, I, cB, n, round_a=True) == pytest.approx(-0.003)  # the ball's surface
+    assert contact_plane(face, I, cB, ball, I, cA, -n, round_b=True) == pytest.approx(0.003)

@@ -146,13 +146,17 @@ def support(table, R, d_world) -> float:
     return float(table[1][_row(table, R, d_world)])
 
 
-def contact_plane(table_a, R_a, c_a, table_b, R_b, c_b, n) -> float:
+def contact_plane(table_a, R_a, c_a, table_b, R_b, c_b, n, round_a: bool = False, round_b: bool = False) -> float:
     """Where two touching bodies' surfaces meet along ``n`` (unit, from A into B), as ``n . x`` (m): midway between
     A's support plane towards ``n`` and B's towards ``-n`` (``c_a``, ``c_b`` their mass centres, m). A round body
     rolls on its surface: the lever of the friction's tipping moment reaches it (the touching nodes' centre, where
-    the pair law takes the contact, lay 2 mm (0.13 dx) above a ball's surface at n_grid 32)."""
+    the pair law takes the contact, lay 2 mm (0.13 dx) above a ball's surface at n_grid 32). Round 90
+    (``rigid_pairs.ROUND_PAIR``, the engines' rule): where one body alone is round (``round_a`` or ``round_b``, its
+    table :func:`round_table`'s), the plane is that body's own support plane."""
     n = np.asarray(n, np.float64)
-    return 0.5 * (float(np.dot(c_a, n)) + support(table_a, R_a, n) + float(np.dot(c_b, n)) - support(table_b, R_b, -n))
+    w = 0.5 + 0.5 * (float(bool(round_a)) - float(bool(round_b)))
+    return (w * (float(np.dot(c_a, n)) + support(table_a, R_a, n))
+            + (1.0 - w) * (float(np.dot(c_b, n)) - support(table_b, R_b, -n)))
 
 
 def body_flatness(table, R: np.ndarray, d_world: np.ndarray, t_world: np.ndarray) -> float:
