@@ -24,10 +24,10 @@ class RigidFriction:
 
     def set_support(self, data) -> None:
         """The bodies' support tables (``gasp_core.mpm.rigid_pairs.support_data``: directions, supports, curvature
-        tensors, bands, rows per body ``nd``, round 90's round bodies) as fields ``sup_*``; None: no table for any body (every band 0: every
-        contact a face's), zero fields allocated once and nothing uploaded (round 66, docs/reliability.md: the empty
-        tables' eight ``from_numpy`` calls, each a Taichi kernel turned into IR, cost about 0.4 s of every engine
-        built; with every band 0 no table row is read: ``body_row`` loops ``sup_nd`` = 0 times, ``flat_at`` reads
+        tensors, bands, rows per body ``nd``, round 90's round bodies) as fields ``sup_*``; None: no table for any
+        body (every band 0: every contact a face's), zero fields allocated once and nothing uploaded (round 66,
+        docs/reliability.md: the empty tables' eight ``from_numpy`` calls, each a Taichi kernel turned into IR, cost
+        about 0.4 s of every engine built; with every band 0 no table row is read: ``body_row`` loops ``sup_nd`` = 0 times, ``flat_at`` reads
         ``sup_delta`` alone and returns 1, and ``roll_point`` runs only where the flatness is under 1)."""
         import numpy as np
         if data is None:
@@ -177,7 +177,8 @@ class RigidFriction:
         contact_plane``; ``row_a``, ``row_b`` their table rows towards each other). Round 90: onto a round body's
         own surface (``sup_round`` 1, its exact table), midway where both or neither are round."""
         wa = 0.5 + 0.5 * (self.sup_round[a] - self.sup_round[b])
-        plane = wa * (self.rb_c[a].dot(n) + self.sup_h[row_a]) + (1.0 - wa) * (self.rb_c[b].dot(n) - self.sup_h[row_b])
+        plane = (wa * (self.rb_c[a].dot(n) + self.sup_h[row_a])
+                 + (1.0 - wa) * (self.rb_c[b].dot(n) - self.sup_h[row_b]))
         return x_c + (plane - x_c.dot(n)) * n
 
     @ti.kernel

@@ -19,7 +19,8 @@ FLAT_W = wp.constant(wp.float64(FLAT_TO - FLAT_FROM))
 
 def support_arrays(data, device, nb: int) -> tuple:
     """``gasp_core.mpm.rigid_pairs.support_data``'s tables as Warp arrays (vec3d, float64, mat33d, float64 per body),
-    ``nd`` and the round bodies (float64 per body, round 90); ``data`` None: no table for any of the ``nb`` bodies (every band 0: every contact a face's)."""
+    ``nd`` and the round bodies (float64 per body, round 90); ``data`` None: no table for any of the ``nb`` bodies
+    (every band 0: every contact a face's)."""
     if data is None:
         nb = max(int(nb), 1)
         data = (np.zeros((nb, 3)), np.ones(nb), np.zeros((nb, 3, 3)), np.zeros(nb), 0, np.zeros(nb))
