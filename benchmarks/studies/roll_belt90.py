@@ -80,10 +80,11 @@ def figures(c: np.ndarray, v: np.ndarray, w: np.ndarray, radius: float, t_star: 
     return {"a": a, "v": float(v[-1, 0]), "wR": -float(w[-1, 1]) * radius}
 
 
-def problem(want: dict, fig: dict) -> str | None:
-    """None when every figure is within ``test_rolling.TOL`` of the closed form (two-sided), else what is wrong."""
+def problem(want: dict, fig: dict, keys=("a", "v", "wR")) -> str | None:
+    """None when every figure of ``keys`` that ``fig`` holds (not None) is within ``test_rolling.TOL`` of ``want``'s
+    (two-sided), else what is wrong."""
     out = [f"{key} {fig[key]:.5g} against {want[key]:.5g} ({100 * (fig[key] / want[key] - 1):+.2f} %)"
-           for key in ("a", "v", "wR") if fig.get(key) is not None and abs(fig[key] / want[key] - 1.0) > rl.TOL]
+           for key in keys if fig.get(key) is not None and abs(fig[key] / want[key] - 1.0) > rl.TOL]
     return "; ".join(out) or None
 
 
@@ -187,9 +188,7 @@ def main(argv=None) -> int:
     ap.add_argument("--round-collider", type=int, default=1, help="gasp_core.mpm.round_ground.ROUND_COLLIDER")
     ap.add_argument("--out", default=None, help="a new JSON file for the rows (refused if it exists)")
     a = ap.parse_args(argv)
-    out = Path(a.out) if a.out else None
-    if out is not None and out.exists():
-        ap.error(f"--out {out} exists; give a new file")
+    out = RF.new_out(ap, a.out)
     import gasp_core.mpm.round_ground as rg
     rg.ROUND_COLLIDER = a.round_collider
     rows = []

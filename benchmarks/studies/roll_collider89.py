@@ -67,9 +67,7 @@ def main(argv=None) -> int:
     ap.add_argument("--round-collider", type=int, default=1, help="gasp_core.mpm.round_ground.ROUND_COLLIDER")
     ap.add_argument("--out", default=None, help="a new JSON file for the rows (refused if it exists)")
     a = ap.parse_args(argv)
-    out = Path(a.out) if a.out else None
-    if out is not None and out.exists():
-        ap.error(f"--out {out} exists; give a new file")
+    out = RF.new_out(ap, a.out)
     import gasp_core.mpm.round_ground as rg
     rg.ROUND_COLLIDER = a.round_collider
     rows = []

@@ -191,6 +191,14 @@ def report(r: dict) -> str:
             f"k {r['k']:.3f}) mu {r['mu']}: {figs}; {r['problem'] or 'ok'}")
 
 
+def new_out(ap, path: str | None) -> Path | None:
+    """``--out`` as a new file: None without it; ``ap.error`` (exit 2) where it exists (a run never overwrites)."""
+    out = Path(path) if path else None
+    if out is not None and out.exists():
+        ap.error(f"--out {out} exists; give a new file")
+    return out
+
+
 def write_rows(out: Path | None, rows: list[dict]) -> None:
     """The rows as JSON in ``out`` (atomically; nothing without it)."""
     if out is not None:
@@ -205,9 +213,7 @@ def main(argv=None) -> int:
     ap.add_argument("--shapes", default="ball,cylinder", help="ball, cylinder or both (comma-separated)")
     ap.add_argument("--out", default=None, help="a new JSON file for the rows (refused if it exists)")
     a = ap.parse_args(argv)
-    out = Path(a.out) if a.out else None
-    if out is not None and out.exists():
-        ap.error(f"--out {out} exists; give a new file")
+    out = new_out(ap, a.out)
     rows = []
     for shape in a.shapes.split(","):
         for radius, n_grid, sampling in family(shape):

@@ -111,9 +111,7 @@ def main(argv=None) -> int:
     a = ap.parse_args(argv)
     import gasp_core.mpm.rigid_pairs as rp
     rp.ROUND_PAIR = a.round_pair
-    out = Path(a.out) if a.out else None
-    if out is not None and out.exists():
-        ap.error(f"--out {out} exists; give a new file")
+    out = RF.new_out(ap, a.out)
     rows = []
     for shape in a.shapes.split(","):
         for radius, n_grid, sampling in family():

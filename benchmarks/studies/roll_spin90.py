@@ -29,7 +29,13 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from roll_belt90 import _CORNERS, _FACES, BOX, FPS, GRIDS, MUS, RADII, RF, closed_form, rl  # noqa: E402
+from roll_belt90 import _CORNERS, _FACES, BOX, FPS, GRIDS, MUS, RADII, RF, closed_form, problem, rl  # noqa: E402
+
+
+def as_class(col, cls):
+    """``col`` itself, or a copy of it as the :class:`Collider` subclass ``cls`` (the broken variants)."""
+    import dataclasses
+    return col if cls is None else cls(**{f.name: getattr(col, f.name) for f in dataclasses.fields(col)})
 
 
 # --------------------------------------------------------------------------- the turntable
@@ -42,13 +48,12 @@ def turntable_collider(mu: float, n_grid: int, spin: tuple = (0.0, 0.0, OMEGA), 
     """A square plate 1.0 x 1.0 x 0.1 m turning at ``spin`` (rad/s) about the vertical through ``AXIS`` (its top
     face's centre; ``[[collider]] angular_velocity``), friction ``mu``. ``cls``: a :class:`Collider` subclass (the
     broken variants)."""
-    import dataclasses
     from gasp_core.colliders.model import Motion
     from gasp_core.colliders.sdf import SDF_SPACING, collider_from_triangles
     tri = (np.array([0.0, 0.0, -0.05]) + _CORNERS * np.array([0.5, 0.5, 0.05]))[_FACES]
     col = collider_from_triangles(tri, SDF_SPACING * BOX / n_grid, name="turntable", friction=mu, position=AXIS,
                                   motion=Motion(angular_velocity=spin))
-    return col if cls is None else cls(**{f.name: getattr(col, f.name) for f in dataclasses.fields(col)})
+    return as_class(col, cls)
 
 
 def turntable_figures(c: np.ndarray, k: float, t_from: float) -> dict:
@@ -88,10 +93,7 @@ def turntable(engine: str, radius: float, n_grid: int, mu: float, friction: floa
 
 def turntable_problem(fig: dict) -> str | None:
     """None when the orbit's rate and radius are within ``test_rolling.TOL`` of the closed form (two-sided)."""
-    bad = [f"{key} {fig[key]:.5g} against {fig[key + '_want']:.5g} "
-           f"({100 * (fig[key] / fig[key + '_want'] - 1):+.2f} %)"
-           for key in ("rate", "r") if abs(fig[key] / fig[key + "_want"] - 1.0) > rl.TOL]
-    return "; ".join(bad) or None
+    return problem({key: fig[key + "_want"] for key in ("rate", "r")}, fig, ("rate", "r"))
 
 
 # --------------------------------------------------------------------------- the drum
@@ -108,7 +110,6 @@ def drum_collider(mu: float, n_grid: int = DRUM_GRID, spin: float = DRUM_OMEGA, 
     """The inside of a cylinder of radius ``DRUM_R`` about the y axis through ``DRUM_C`` (signed distance ``DRUM_R -
     sqrt(x^2 + z^2)``, exact), sampled at ``SDF_SPACING`` of the cell over the box, turning at ``spin`` rad/s about
     +y (``[[collider]] angular_velocity``), friction ``mu``."""
-    import dataclasses
     from gasp_core.colliders.model import Motion
     from gasp_core.colliders.sdf import SDF_PAD, SDF_SPACING, _finish
     h = SDF_SPACING * BOX / n_grid
@@ -118,7 +119,7 @@ def drum_collider(mu: float, n_grid: int = DRUM_GRID, spin: float = DRUM_OMEGA, 
     phi = DRUM_R - np.hypot(g[..., 0], g[..., 2])
     col = _finish("drum", phi, origin, h, friction=mu, position=DRUM_C,
                   motion=Motion(angular_velocity=(0.0, spin, 0.0)))
-    return col if cls is None else cls(**{f.name: getattr(col, f.name) for f in dataclasses.fields(col)})
+    return as_class(col, cls)
 
 
 def drum_reference(k: float, mu: float, surface_speed: float, t: np.ndarray,
@@ -201,9 +202,7 @@ def drum(engine: str, mu: float = DRUM_MU, n_grid: int = DRUM_GRID, radius: floa
 
 def drum_problem(fig: dict, want: dict) -> str | None:
     """None when the first peak and the half period are within ``test_rolling.TOL`` of ``want`` (two-sided)."""
-    bad = [f"{key} {fig[key]:.5g} against {want[key]:.5g} ({100 * (fig[key] / want[key] - 1):+.2f} %)"
-           for key in ("peak", "half") if abs(fig[key] / want[key] - 1.0) > rl.TOL]
-    return "; ".join(bad) or None
+    return problem(want, fig, ("peak", "half"))
 
 
 def main(argv=None) -> int:
@@ -212,9 +211,7 @@ def main(argv=None) -> int:
     ap.add_argument("--parts", default="turntable,drum", help="turntable, drum or both (comma-separated)")
     ap.add_argument("--out", default=None, help="a new JSON file for the rows (refused if it exists)")
     a = ap.parse_args(argv)
-    out = Path(a.out) if a.out else None
-    if out is not None and out.exists():
-        ap.error(f"--out {out} exists; give a new file")
+    out = RF.new_out(ap, a.out)
     rows = []
     for radius in RADII if "turntable" in a.parts else ():
         for n_grid in GRIDS:
