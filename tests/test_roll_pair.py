@@ -13,6 +13,11 @@ contact is taken on its surface (``gasp_core.mpm.rigid_pairs.ROUND_PAIR``).
   judged by ``test_rolling``'s two-sided 5 % check.
 - **The default tier**: the 5 cm cylinder at n_grid 32, rolling and slipping, on both engines.
 - **Catch**: round 65's tables and midway plane (``ROUND_PAIR`` 0) fail the 5 cm cylinder (warp_mpm).
+- **Round 91, the contact's normal** (``gasp_core.mpm.rigid_pairs.ROUND_NORMAL``): a pair of one round body takes its
+  normal from the two bodies' supports (``rigid_support.round_normal``), not from the touching nodes, whose normal
+  leaned 1-2 degrees ahead of a rolling 10 cm cylinder: it sank 1.7 mm into the slab in 0.3 s and slipped 3.3 % fast.
+  The 10 cm cylinder at n_grid 24 on both engines (``a`` within 1 %, no sink over 0.2 mm), its catch (the nodes'
+  normal, warp_mpm) and the NumPy rule.
 - The exact tables (NumPy): a sphere's support and curvature, a cylinder's side and end, ``support_data``'s round
   bodies, and ``rigid_support.contact_plane``'s round rule.
 """
@@ -30,7 +35,7 @@ import roll_family88 as RF  # noqa: E402
 import roll_pair90 as RP  # noqa: E402
 from slopes import ENGINES  # noqa: E402
 
-from gasp_core.mpm import rigid_pairs  # noqa: E402
+from gasp_core.mpm import rigid_pairs, rigid_support  # noqa: E402
 from gasp_core.mpm.rigid_support import contact_plane, flatness, round_table, table_directions  # noqa: E402
 
 
@@ -64,6 +69,38 @@ def test_the_pair_check_catches_the_midway_plane(monkeypatch):
     assert _problem("warp_mpm", "cylinder", 0.05, 32, "fibonacci", RF.MUS[0]) is not None
 
 
+#: Round 91: the 10 cm cylinder's figures after the normal from the supports (``rigid_support.round_normal``): 0.00 %
+#: and no sink on both engines, the family within 0.15 %; with the nodes' normal +3.33 % and 1.7 mm.
+A_TOL, SINK_TOL = 0.01, 2.0e-4
+
+
+def _normal_problem(engine: str) -> str | None:
+    """The 10 cm cylinder slipping (mu 0.05) at n_grid 24 on the slab: ``a`` within :data:`A_TOL` of Coulomb's (two
+    sided) and its centre no more than :data:`SINK_TOL` m lower over the run."""
+    r = RP.row(engine, "cylinder", 0.1, 24, "fibonacci", RF.MUS[1])
+    bad = []
+    if abs(r["a_err"]) > A_TOL:
+        bad.append(f"a {100 * r['a_err']:+.2f} %")
+    if r["sink"] > SINK_TOL:
+        bad.append(f"sank {1e3 * r['sink']:.2f} mm")
+    return "; ".join(bad) or None
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_a_10_cm_cylinder_slips_on_a_rigid_slab_without_sinking(engine):
+    """Round 91: the pair's normal from the supports; before, the nodes' normal leaned 1-2 degrees ahead of the
+    rolling body and it sank into the slab, slipping 3.3 % fast."""
+    pytest.importorskip(f"gasp_{engine}")
+    assert _normal_problem(engine) is None
+
+
+def test_the_normal_check_catches_the_nodes_normal(monkeypatch):
+    pytest.importorskip("gasp_warp_mpm")
+    monkeypatch.setattr(rigid_pairs, "ROUND_NORMAL", 0)
+    problem = _normal_problem("warp_mpm")
+    assert problem is not None and "sank" in problem and "a +" in problem, problem
+
+
 def test_a_round_table_is_the_exact_shape():
     d = table_directions(np.random.default_rng(0).normal(size=(50, 3)))
     h, C = round_table(d, np.array([0.05, 0.0, 0.0, 0.0, 0.0]))
@@ -83,10 +120,10 @@ def test_a_round_table_is_the_exact_shape():
 
 def test_support_data_marks_the_round_bodies(monkeypatch):
     s, _, _ = RP.setup("ball", 0.05, 32, "fibonacci", 0.5)
-    *_, nd, rnd = rigid_pairs.support_data(s)
+    *_, nd, rnd, _ = rigid_pairs.support_data(s)
     assert list(rnd) == [1.0, 0.0]
     monkeypatch.setattr(rigid_pairs, "ROUND_PAIR", 0)
-    assert list(rigid_pairs.support_data(s)[-1]) == [0.0, 0.0]
+    assert list(rigid_pairs.support_data(s)[-2]) == [0.0, 0.0]
 
 
 def test_the_contact_plane_is_on_the_round_bodys_surface():
@@ -99,3 +136,21 @@ def test_the_contact_plane_is_on_the_round_bodys_surface():
     assert contact_plane(ball, I, cA, face, I, cB, n) == pytest.approx(-0.0015)          # midway: z = 1.5 mm
     assert contact_plane(ball, I, cA, face, I, cB, n, round_a=True) == pytest.approx(-0.003)  # the ball's surface
     assert contact_plane(face, I, cB, ball, I, cA, -n, round_b=True) == pytest.approx(0.003)
+
+
+def test_a_round_bodys_normal_is_the_separating_axis_of_the_supports():
+    """Round 91 (``rigid_support.round_normal``): a ball over a box's face takes the face's normal whatever the nodes'
+    lean within the cone; beyond the box's edge it leans towards the ball as the line from the edge does, within the
+    rows' spacing (12.4 degrees off here); off (cone cosine above 1) the nodes' normal stands."""
+    d = table_directions(np.zeros((1, 3)))
+    ball = (d, *round_table(d, np.array([0.05, 0.0, 0.0, 0.0, 0.0])))
+    half = np.array([0.16, 0.12, 0.015])
+    box = (d, np.abs(d) @ half)   # a box's support: sum |d_i| half_i, its face normals among the rows
+    I, cone = np.eye(3), np.cos(np.radians(rigid_pairs.NORMAL_CONE))
+    lean = np.array([np.sin(0.03), 0.0, np.cos(0.03)])   # the nodes' normal 1.7 degrees off
+    over = np.array([0.10, 0.0, 0.015 + 0.05])   # the ball on the face, 6 cm from its edge
+    assert np.allclose(rigid_support.round_normal(box, I, np.zeros(3), ball, I, over, lean, cone), [0.0, 0.0, 1.0])
+    beyond = np.array([0.16 + 0.03, 0.0, 0.015 + 0.04])   # the ball past the edge: the true normal 53 deg from z
+    n = rigid_support.round_normal(box, I, np.zeros(3), ball, I, beyond, np.array([0.6, 0.0, 0.8]), cone)
+    assert np.degrees(np.arccos(n @ np.array([0.6, 0.0, 0.8]))) < 13.0 and n[0] > 0.3   # the rows 13 deg apart
+    assert np.allclose(rigid_support.round_normal(box, I, np.zeros(3), ball, I, over, lean, 2.0), lean)

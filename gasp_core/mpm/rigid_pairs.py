@@ -96,16 +96,27 @@ def pair_data(setup) -> tuple:
 #: the two bodies' supports (``docs/rigid.md`` "Round 90: a round body on another rigid body"). 0: round 65's tables of
 #: its points and the midway plane (the broken variant the catches use; a Python switch, read at build time).
 ROUND_PAIR = 1
+#: Round 91: a pair of one round body and one that is not takes its contact normal from the two bodies' supports
+#: (``rigid_support.round_normal``, the separating axis) within :data:`NORMAL_CONE` degrees of the touching nodes'
+#: normal (``docs/rigid.md`` "Round 91: the normal of a round body's contact"). 0: the nodes' normal (the broken variant
+#: the catches use; read at build time, with ``ROUND_PAIR``).
+ROUND_NORMAL = 1
+#: The search cone's half-angle, degrees: wider than the tables' Fibonacci spacing (about 13 degrees for 256
+#: directions), so a row always lies inside it, and ten times the nodes' normal's lean measured on a rolling cylinder
+#: (1-2 degrees).
+NORMAL_CONE = 20.0
 
 
 def support_data(setup):
-    """``(dirs, h, curv, delta, nd, round)``: every rigid body's support table (round 65,
+    """``(dirs, h, curv, delta, nd, round, cos_cone)``: every rigid body's support table (round 65,
     ``gasp_core.mpm.rigid_support.support_table``, of its points with mass; spacing ``p_vol ** (1/3)``), body ``b``'s
     rows ``b * nd`` to ``(b + 1) * nd``: directions (n, 3), supports (n,) m, curvature tensors (n, 3, 3) 1/m, the
     band per body (m; 0: no table, its contacts taken as a face's) and per body 1.0 where it is a round body (a
     sphere or solid cylinder, ``gasp_core.mpm.round_ground.ground_shapes``) else 0.0 (round 90: its rows are its exact
-    shape's, ``rigid_support.round_table``, and the pair law takes the contact on its surface). None with fewer than
-    two rigid bodies."""
+    shape's, ``rigid_support.round_table``, and the pair law takes the contact on its surface); ``cos_cone`` the cosine
+    of :data:`NORMAL_CONE` (round 91: a pair of one round body takes its normal from the supports,
+    ``rigid_support.round_normal``), 2.0 when :data:`ROUND_NORMAL` or :data:`ROUND_PAIR` is off (the nodes' normal).
+    None with fewer than two rigid bodies."""
     from gasp_core.mpm.rigid import body_frames, rigid_mask
     from gasp_core.mpm.rigid_support import round_table, support_table, table_directions
     from gasp_core.mpm.round_ground import ground_shapes
@@ -129,7 +140,8 @@ def support_data(setup):
                 rnd[b] = 1.0
             rows = slice(b * nd, (b + 1) * nd)
             dirs[rows], h[rows], curv[rows] = D, H, C[:, [0, 1, 2, 1, 3, 4, 2, 4, 5]].reshape(-1, 3, 3)
-    return dirs, h, curv, delta, nd, rnd
+    cos_cone = float(np.cos(np.radians(NORMAL_CONE))) if ROUND_PAIR and ROUND_NORMAL else 2.0
+    return dirs, h, curv, delta, nd, rnd, cos_cone
 
 
 def body_boxes(setup) -> np.ndarray:

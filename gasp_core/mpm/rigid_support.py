@@ -159,6 +159,47 @@ def contact_plane(table_a, R_a, c_a, table_b, R_b, c_b, n, round_a: bool = False
             + (1.0 - w) * (float(np.dot(c_b, n)) - support(table_b, R_b, -n)))
 
 
+def round_normal(table_f, R_f, c_f, table_r, R_r, c_r, n, cos_cone: float) -> np.ndarray:
+    """Round 91: the normal of a round body's contact with a body that is not round, from their supports (the
+    separating axis), not from the touching nodes (``docs/rigid.md`` "Round 91: the normal of a round body's contact").
+
+    For convex bodies the signed distance is ``max_d [d . (c_r - c_f) - h_f(d) - h_r(-d)]`` over unit ``d``, and the
+    maximiser is the contact's normal out of ``f`` (Gilbert, Johnson & Keerthi 1988; the separating-axis theorem). The
+    search runs over ``f``'s own table directions within the cone ``d . n >= cos_cone`` of the nodes' normal ``n``
+    (where ``f``'s support is its table's, exact: a box's face normals are rows), the round body's support read at its
+    nearest row (a sphere's is ``R`` in every row). The nodes' normal (field B's mass gradient) leaned 1-2 degrees
+    ahead of a rolling 10 cm cylinder and its contact centre lagged 7 mm behind: the approach removed along the leaning
+    normal let the body sink 1.7 mm into a slab in 0.3 s and roll 3.4 % fast.
+
+    Parameters
+    ----------
+    table_f, table_r : tuple
+        :func:`support_table`'s ``(dirs, h, ...)`` of the body that is not round and of the round body
+        (:func:`round_table`'s rows).
+    R_f, R_r : array_like, shape (3, 3)
+        Their rotations.
+    c_f, c_r : array_like, shape (3,)
+        Their mass centres, m.
+    n : array_like, shape (3,)
+        The nodes' unit normal, out of ``f`` towards the round body.
+    cos_cone : float
+        The cosine of the search cone's half-angle (:data:`gasp_core.mpm.rigid_pairs.NORMAL_CONE`); above 1: ``n``.
+
+    Returns
+    -------
+    ndarray, shape (3,)
+        The unit normal out of ``f`` (``n`` itself when no table direction lies in the cone).
+    """
+    n = np.asarray(n, np.float64)
+    E = np.asarray(table_f[0], np.float64) @ np.asarray(R_f, np.float64).T   # f's directions in the world
+    inside = np.flatnonzero(E @ n >= cos_cone)
+    if not len(inside):
+        return n
+    dc = np.asarray(c_r, np.float64) - np.asarray(c_f, np.float64)
+    gaps = [float(E[i] @ dc) - float(table_f[1][i]) - support(table_r, R_r, -E[i]) for i in inside]
+    return E[inside[int(np.argmax(gaps))]].copy()
+
+
 def body_flatness(table, R: np.ndarray, d_world: np.ndarray, t_world: np.ndarray) -> float:
     """One body's flatness (module notes) towards the world direction ``d_world`` (unit, out of the body towards the
     other) along the slip ``t_world`` (unit), the body at rotation ``R`` (3, 3); ``table`` :func:`support_table`'s."""

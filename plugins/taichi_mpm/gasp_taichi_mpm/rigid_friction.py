@@ -33,14 +33,14 @@ class RigidFriction:
         if data is None:
             if not getattr(self, "sup_empty", False):
                 nb = max(int(self.n_bodies), 1)
-                self.sup_nd, self.sup_empty = 0, True
+                self.sup_nd, self.sup_empty, self.sup_cone = 0, True, 2.0
                 self.sup_dirs = ti.Vector.field(3, ti.f64, shape=nb)
                 self.sup_h = ti.field(ti.f64, shape=nb)
                 self.sup_curv = ti.Matrix.field(3, 3, ti.f64, shape=nb)
                 self.sup_delta = ti.field(ti.f64, shape=nb)
                 self.sup_round = ti.field(ti.f64, shape=nb)
             return
-        dirs, h, curv, delta, self.sup_nd, rnd = data
+        dirs, h, curv, delta, self.sup_nd, rnd, self.sup_cone = data
         self.sup_empty = False
         self.sup_dirs = ti.Vector.field(3, ti.f64, shape=len(h))
         self.sup_h = ti.field(ti.f64, shape=len(h))
@@ -64,6 +64,30 @@ class RigidFriction:
                 top = c
                 best = b * self.sup_nd + i
         return best
+
+    @ti.func
+    def round_normal(self, a, b, n):
+        """Round 91 (``gasp_core.mpm.rigid_support.round_normal``, warp_mpm's the same): a pair of one round body takes
+        as its normal (from ``a`` into ``b``) the other body's table direction within the cone (``sup_cone``, its
+        cosine) of the nodes' ``n`` that leaves the two supports farthest apart (the separating axis); ``n`` where
+        neither or both are round, or no direction lies in the cone."""
+        out = n
+        if self.sup_nd > 0 and self.sup_round[a] + self.sup_round[b] == 1.0:
+            f, r, sg = a, b, ti.cast(1.0, ti.f64)
+            if self.sup_round[a] > 0.5:
+                f, r, sg = b, a, ti.cast(-1.0, ti.f64)
+            fn = sg * n   # out of f towards the round body
+            dc = sg * (self.rb_c[b] - self.rb_c[a])
+            Rf, Rr = self.rb_R[f], self.rb_R[r]
+            top = ti.cast(-1.0e30, ti.f64)
+            for i in range(self.sup_nd):
+                e = Rf @ self.sup_dirs[f * self.sup_nd + i]
+                if e.dot(fn) >= self.sup_cone:
+                    gap = e.dot(dc) - self.sup_h[f * self.sup_nd + i] - self.sup_h[self.body_row(r, Rr, -e)]
+                    if gap > top:
+                        top = gap
+                        out = sg * e
+        return out
 
     @ti.func
     def flat_at(self, b, row, R, t):
@@ -200,7 +224,7 @@ class RigidFriction:
             W = self.pair_acc[0]
             n = ti.Vector([self.pair_acc[4], self.pair_acc[5], self.pair_acc[6]])
             if W > 0.0 and n.norm() > 0.0:
-                n = n / n.norm()
+                n = self.round_normal(a, b, n / n.norm())   # round 91: one round body, from the supports
                 x_c = ti.Vector([self.pair_acc[1], self.pair_acc[2], self.pair_acc[3]]) / W
                 MA, MB = self.rb_M[a], self.rb_M[b]
                 VA, VB, wA, wB = self.rb_V[a], self.rb_V[b], self.rb_w[a], self.rb_w[b]

@@ -114,8 +114,7 @@ class RigidPairs:
             n_on = self.pair_n[None]
             for q in range(n_on):   # the touching pairs, bottom up
                 s = self.pair_slots[q]
-                nn = ti.Vector([self.pair_acc[7 * s + 4], self.pair_acc[7 * s + 5], self.pair_acc[7 * s + 6]])
-                nn = nn / ti.max(nn.norm(), 1.0e-300)   # round 65: the bodies' table rows towards each other
+                nn = self.pair_normal(s)   # round 65: the bodies' table rows towards each other
                 self.pair_rows[2 * s] = self.body_row(s // nb, self.rb_R[s // nb], nn)
                 self.pair_rows[2 * s + 1] = self.body_row(s - (s // nb) * nb, self.rb_R[s - (s // nb) * nb], -nn)
                 for c in ti.static(range(4)):
@@ -168,8 +167,7 @@ class RigidPairs:
         nb = self.n_bodies
         for q in range(self.pair_n[None]):   # 1. each listed slot
             s = self.pair_slots[q]
-            nn = ti.Vector([self.pair_acc[7 * s + 4], self.pair_acc[7 * s + 5], self.pair_acc[7 * s + 6]])
-            nn = nn / ti.max(nn.norm(), 1.0e-300)
+            nn = self.pair_normal(s)
             self.pair_rows[2 * s] = self.body_row(s // nb, self.rb_R[s // nb], nn)
             self.pair_rows[2 * s + 1] = self.body_row(s - (s // nb) * nb, self.rb_R[s - (s // nb) * nb], -nn)
             for c in ti.static(range(4)):
@@ -236,6 +234,17 @@ class RigidPairs:
             self.pair_root[r] = self.pair_root[self.pair_root[r]]
             r = self.pair_root[r]
         return r
+
+    @ti.func
+    def pair_normal(self, s):
+        """Slot ``s``'s unit normal from its nodes' sum, round 91's from the supports where one body is round
+        (``RigidFriction.round_normal``), written back to the sum for :meth:`pair_update`."""
+        nb = self.n_bodies
+        nn = ti.Vector([self.pair_acc[7 * s + 4], self.pair_acc[7 * s + 5], self.pair_acc[7 * s + 6]])
+        nn = self.round_normal(s // nb, s - (s // nb) * nb, nn / ti.max(nn.norm(), 1.0e-300))
+        for ax in ti.static(range(3)):
+            self.pair_acc[7 * s + 4 + ax] = nn[ax]
+        return nn
 
     @ti.func
     def pair_height(self, s, g):

@@ -12,7 +12,7 @@ import numpy as np
 import warp as wp
 
 from .precision import MODULE_OPTIONS, build_types
-from .rigid_support import body_row, roll_flat_at, roll_point_at, slip_at, tip
+from .rigid_support import body_row, roll_flat_at, roll_point_at, round_normal, slip_at, tip
 
 vec3d = wp.types.vector(3, wp.float64)
 mat33d = wp.types.matrix((3, 3), wp.float64)
@@ -142,6 +142,22 @@ def build_pair_update(Ft):
     return pair_update
 
 
+@wp.func
+def pair_normal(acc: wp.array(dtype=wp.float64), s: int, nb: int, t_dirs: wp.array(dtype=vec3d),
+                t_h: wp.array(dtype=wp.float64), t_round: wp.array(dtype=wp.float64), nd: int, cos_cone: wp.float64,
+                rot: wp.array(dtype=mat33d), centre: wp.array(dtype=vec3d)):
+    # slot s's unit normal from its nodes' sum, round 91's from the supports where one body is round
+    # (rigid_support.round_normal), written back to the sum for pair_update; then its table rows are read from it
+    a = s / nb
+    b = s - a * nb
+    nn = vec3d(acc[7 * s + 4], acc[7 * s + 5], acc[7 * s + 6])
+    nn = nn / wp.max(wp.length(nn), wp.float64(1.0e-300))
+    nn = round_normal(t_dirs, t_h, t_round, nd, cos_cone, a, b, rot[a], rot[b], centre[a], centre[b], nn)
+    for ax in range(3):
+        acc[7 * s + 4 + ax] = nn[ax]
+    return nn
+
+
 @functools.cache
 def build_rigid_pairs(Ft):
     """``rigid_pairs`` (float64 whatever ``Ft``): ``gasp_core.mpm.rigid_pairs.solve_pairs`` in one thread after
@@ -166,12 +182,11 @@ def build_rigid_pairs(Ft):
                     count: wp.array(dtype=wp.int32), seen: wp.array(dtype=wp.int32), t_dirs: wp.array(dtype=vec3d),
                     t_h: wp.array(dtype=wp.float64), t_curv: wp.array(dtype=mat33d),
                     t_delta: wp.array(dtype=wp.float64), nd: int, t_round: wp.array(dtype=wp.float64),
-                    rows: wp.array(dtype=wp.int32)):
+                    cos_cone: wp.float64, rows: wp.array(dtype=wp.int32)):
         n_on = count[0]
         for q in range(n_on):   # the touching pairs, insertion-sorted by (-g . x_c, slot): bottom up, ties by slot
             s = slots[q]
-            nn = vec3d(acc[7 * s + 4], acc[7 * s + 5], acc[7 * s + 6])   # round 65: the bodies' table rows
-            nn = nn / wp.max(wp.length(nn), wp.float64(1.0e-300))
+            nn = pair_normal(acc, s, nb, t_dirs, t_h, t_round, nd, cos_cone, rot, centre)
             rows[2 * s] = body_row(t_dirs, nd, s / nb, rot[s / nb], nn)
             rows[2 * s + 1] = body_row(t_dirs, nd, s - (s / nb) * nb, rot[s - (s / nb) * nb], -nn)
             for c in range(4):

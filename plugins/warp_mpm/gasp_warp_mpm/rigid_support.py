@@ -19,15 +19,15 @@ FLAT_W = wp.constant(wp.float64(FLAT_TO - FLAT_FROM))
 
 def support_arrays(data, device, nb: int) -> tuple:
     """``gasp_core.mpm.rigid_pairs.support_data``'s tables as Warp arrays (vec3d, float64, mat33d, float64 per body),
-    ``nd`` and the round bodies (float64 per body, round 90); ``data`` None: no table for any of the ``nb`` bodies
-    (every band 0: every contact a face's)."""
+    ``nd``, the round bodies (float64 per body, round 90) and the normal's cone (its cosine, float; round 91);
+    ``data`` None: no table for any of the ``nb`` bodies (every band 0: every contact a face's)."""
     if data is None:
         nb = max(int(nb), 1)
-        data = (np.zeros((nb, 3)), np.ones(nb), np.zeros((nb, 3, 3)), np.zeros(nb), 0, np.zeros(nb))
-    dirs, h, curv, delta, nd, rnd = data
+        data = (np.zeros((nb, 3)), np.ones(nb), np.zeros((nb, 3, 3)), np.zeros(nb), 0, np.zeros(nb), 2.0)
+    dirs, h, curv, delta, nd, rnd, cos_cone = data
     return (wp.array(dirs, dtype=vec3d, device=device), wp.array(h, dtype=wp.float64, device=device),
             wp.array(curv, dtype=mat33d, device=device), wp.array(delta, dtype=wp.float64, device=device), int(nd),
-            wp.array(rnd, dtype=wp.float64, device=device))
+            wp.array(rnd, dtype=wp.float64, device=device), float(cos_cone))
 
 
 @wp.func
@@ -99,6 +99,38 @@ def roll_point(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), rnd: 
                a: int, b: int, RA: mat33d, RB: mat33d, cA: vec3d, cB: vec3d, n: vec3d, x_c: vec3d):
     # roll_point_at with the rows looked up
     return roll_point_at(h, rnd, a, b, body_row(dirs, nd, a, RA, n), body_row(dirs, nd, b, RB, -n), cA, cB, n, x_c)
+
+
+@wp.func
+def round_normal(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), rnd: wp.array(dtype=wp.float64), nd: int,
+                 cos_cone: wp.float64, a: int, b: int, RA: mat33d, RB: mat33d, cA: vec3d, cB: vec3d, n: vec3d):
+    # round 91 (gasp_core.mpm.rigid_support.round_normal): a pair of one round body takes as its normal (from A into
+    # B) the other body's table direction within the cone of the nodes' n that leaves the two supports farthest apart
+    # (the separating axis); n where neither or both are round, or no direction lies in the cone
+    out = n
+    if nd > 0 and rnd[a] + rnd[b] == wp.float64(1.0):
+        f = a
+        r = b
+        Rf = RA
+        Rr = RB
+        sg = wp.float64(1.0)
+        if rnd[a] > wp.float64(0.5):
+            f = b
+            r = a
+            Rf = RB
+            Rr = RA
+            sg = wp.float64(-1.0)
+        fn = sg * n   # out of f towards the round body
+        dc = sg * (cB - cA)
+        top = wp.float64(-1.0e30)
+        for i in range(nd):
+            e = Rf * dirs[f * nd + i]
+            if wp.dot(e, fn) >= cos_cone:
+                gap = wp.dot(e, dc) - h[f * nd + i] - h[body_row(dirs, nd, r, Rr, -e)]
+                if gap > top:
+                    top = gap
+                    out = sg * e
+    return out
 
 
 @wp.func
