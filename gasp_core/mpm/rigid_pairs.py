@@ -111,11 +111,12 @@ def support_data(setup):
     """``(dirs, h, curv, delta, nd, round, cos_cone)``: every rigid body's support table (round 65,
     ``gasp_core.mpm.rigid_support.support_table``, of its points with mass; spacing ``p_vol ** (1/3)``), body ``b``'s
     rows ``b * nd`` to ``(b + 1) * nd``: directions (n, 3), supports (n,) m, curvature tensors (n, 3, 3) 1/m, the
-    band per body (m; 0: no table, its contacts taken as a face's) and per body 1.0 where it is a round body (a
-    sphere or solid cylinder, ``gasp_core.mpm.round_ground.ground_shapes``) else 0.0 (round 90: its rows are its exact
-    shape's, ``rigid_support.round_table``, and the pair law takes the contact on its surface); ``cos_cone`` the cosine
-    of :data:`NORMAL_CONE` (round 91: a pair of one round body takes its normal from the supports,
-    ``rigid_support.round_normal``), 2.0 when :data:`ROUND_NORMAL` or :data:`ROUND_PAIR` is off (the nodes' normal).
+    band per body (m; 0: no table, its contacts taken as a face's) and per body its round shape (round 90: a sphere
+    or solid cylinder, ``gasp_core.mpm.round_ground.ground_shapes``; its rows are its exact shape's,
+    ``rigid_support.round_table``, and the pair law takes the contact on its surface): 1.0 a sphere, 2.0 a cylinder
+    (round 91), 0.0 none; ``cos_cone`` the cosine of :data:`NORMAL_CONE` (round 91: the pair's normal from the
+    bodies' shapes, ``rigid_support.pair_normal``), 2.0 when :data:`ROUND_NORMAL` or :data:`ROUND_PAIR` is off (the
+    nodes' normal).
     None with fewer than two rigid bodies."""
     from gasp_core.mpm.rigid import body_frames, rigid_mask
     from gasp_core.mpm.rigid_support import round_table, support_table, table_directions
@@ -137,7 +138,7 @@ def support_data(setup):
             D, H, C, delta[b] = support_table(X0[sel], float(np.mean(vol[sel])) ** (1.0 / 3.0))
             if ROUND_PAIR and shapes[b, 0] > 0.0:   # round 90: a sphere or cylinder on its exact shape
                 H, C = round_table(D, shapes[b])
-                rnd[b] = 1.0
+                rnd[b] = 1.0 if shapes[b, 1] <= 0.0 else 2.0   # round 91: 1 a sphere, 2 a cylinder
             rows = slice(b * nd, (b + 1) * nd)
             dirs[rows], h[rows], curv[rows] = D, H, C[:, [0, 1, 2, 1, 3, 4, 2, 4, 5]].reshape(-1, 3, 3)
     cos_cone = float(np.cos(np.radians(NORMAL_CONE))) if ROUND_PAIR and ROUND_NORMAL else 2.0
@@ -174,16 +175,17 @@ def node_bodies(xn, in_a, rigid, centre, rot, boxes, pad: float):
     return best[0][0], best[1][0]
 
 
-def _pair_update(A, B, x_c, n, mu, lam, flat=1.0, plane=None):
+def _pair_update(A, B, x_c, n, mu, lam, flat=1.0, plane=None, allow=0.0):
     """One pair's update within a sweep (:func:`solve_pairs`): ``A``, ``B`` lists ``[V, w, I, M, c]`` changed in place;
     ``lam`` ``[P, J (3,)]``, the pair's accumulated normal impulse (kg m/s) and friction impulse on B, changed.
     Round 65: ``flat`` and ``plane`` as ``rigid_friction.pair_contact``'s (the flatness along the slip, or along the
     bodies' relative rolling where they do not slip): ``(1 - f)`` of the friction's tipping moment turns the bodies,
-    and the faces hold ``f`` of their relative tipping spin (a ball rolls on a block; a block on a block as before)."""
+    and the faces hold ``f`` of their relative tipping spin (a ball rolls on a block; a block on a block as before).
+    Round 91: ``allow`` the approach speed the pair may keep (m/s, ``rigid_friction.allowed_approach``)."""
     VA, wA, IA, MA, cA = A
     VB, wB, IB, MB, cB = B
     un = float(np.dot(VA - VB, n))
-    P = max(lam[0] + un / (1.0 / MA + 1.0 / MB), 0.0)
+    P = max(lam[0] + (un - allow) / (1.0 / MA + 1.0 / MB), 0.0)
     dP, lam[0] = P - lam[0], P
     A[0], B[0] = VA - (dP / MA) * n, VB + (dP / MB) * n
     rA, rB = x_c - cA, x_c - cB
@@ -257,7 +259,7 @@ def solve_pairs(bodies, contacts, gravity, sweeps: int = SWEEPS):
     contacts : list of tuple
         Per touching pair ``(a, b, x_c, n, mu)``: the body of field A and of B, the contact's centre (m, (3,)), its
         unit normal from A into B and the pair's coefficient; round 65: optionally ``flat`` and ``plane`` after them
-        (``rigid_friction.pair_contact``'s; none: a face on a face).
+        (``rigid_friction.pair_contact``'s; none: a face on a face), round 91: and ``allow``.
     gravity : array_like, shape (3,)
         m/s^2: the pairs are swept in the order of ``-g . x_c``, bottom up.
     sweeps : int

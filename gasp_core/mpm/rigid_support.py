@@ -200,6 +200,60 @@ def round_normal(table_f, R_f, c_f, table_r, R_r, c_r, n, cos_cone: float) -> np
     return E[inside[int(np.argmax(gaps))]].copy()
 
 
+def pair_normal(table_a, R_a, c_a, kind_a: float, table_b, R_b, c_b, kind_b: float, n, cos_cone: float) -> np.ndarray:
+    """Round 91, the rule both engines' pair laws follow for a pair's normal (unit, from A into B): two spheres (kind
+    1, ``rigid_pairs.support_data``'s round column) take their line of centres (exact: the struck ball of an oblique
+    frictionless impact moved 5.5 degrees off it on the nodes' normal); one round body and one that is not take
+    :func:`round_normal`; every other pair (none round, a cylinder with another round body) the nodes' ``n``. A
+    ``cos_cone`` above 1 (the switch off) keeps ``n`` for all.
+
+    Parameters
+    ----------
+    table_a, table_b : tuple
+        The bodies' :func:`support_table` (a round body's rows :func:`round_table`'s).
+    R_a, R_b : array_like, shape (3, 3)
+        Their rotations.
+    c_a, c_b : array_like, shape (3,)
+        Their mass centres, m.
+    kind_a, kind_b : float
+        0 not round, 1 a sphere, 2 a solid cylinder.
+    n : array_like, shape (3,)
+        The touching nodes' unit normal, from A into B.
+    cos_cone : float
+        :func:`round_normal`'s cone.
+
+    Returns
+    -------
+    ndarray, shape (3,)
+    """
+    n = np.asarray(n, np.float64)
+    if cos_cone > 1.0:
+        return n
+    if kind_a == 1.0 and kind_b == 1.0:
+        d = np.asarray(c_b, np.float64) - np.asarray(c_a, np.float64)
+        return d / np.linalg.norm(d)
+    if (kind_a > 0.0) != (kind_b > 0.0):
+        if kind_b > 0.0:
+            return round_normal(table_a, R_a, c_a, table_b, R_b, c_b, n, cos_cone)
+        return -round_normal(table_b, R_b, c_b, table_a, R_a, c_a, -n, cos_cone)
+    return n
+
+
+def pair_gap(table_a, R_a, c_a, kind_a: float, table_b, R_b, c_b, kind_b: float, n, cos_cone: float) -> float:
+    """Round 91: where :func:`pair_normal` takes the normal from the shapes and a sphere's support is exact in every
+    row (two spheres, or a sphere and a body that is not round), the gap between the two bodies' supports along ``n``
+    (unit, from A into B), ``n . (c_b - c_a) - h_a(n) - h_b(-n)`` (m, < 0 where they overlap); -1e30 elsewhere (no gap
+    known). A cylinder's nearest row lies up to half the rows' spacing off its side, where :func:`round_table` puts
+    its support ``R cos`` (0.5 mm short for R 10 cm): a rolling cylinder sank by that much on the gap, so it keeps the
+    nodes' touch. Arguments as :func:`pair_normal`'s."""
+    sphere_one = {float(kind_a), float(kind_b)} == {0.0, 1.0}
+    if cos_cone > 1.0 or not (sphere_one or (kind_a == 1.0 and kind_b == 1.0)):
+        return -1.0e30
+    n = np.asarray(n, np.float64)
+    return (float(n @ (np.asarray(c_b, np.float64) - np.asarray(c_a, np.float64))) - support(table_a, R_a, n)
+            - support(table_b, R_b, -n))
+
+
 def body_flatness(table, R: np.ndarray, d_world: np.ndarray, t_world: np.ndarray) -> float:
     """One body's flatness (module notes) towards the world direction ``d_world`` (unit, out of the body towards the
     other) along the slip ``t_world`` (unit), the body at rotation ``R`` (3, 3); ``table`` :func:`support_table`'s."""

@@ -67,14 +67,17 @@ class RigidFriction:
 
     @ti.func
     def round_normal(self, a, b, n):
-        """Round 91 (``gasp_core.mpm.rigid_support.round_normal``, warp_mpm's the same): a pair of one round body takes
-        as its normal (from ``a`` into ``b``) the other body's table direction within the cone (``sup_cone``, its
-        cosine) of the nodes' ``n`` that leaves the two supports farthest apart (the separating axis); ``n`` where
-        neither or both are round, or no direction lies in the cone."""
+        """Round 91 (``gasp_core.mpm.rigid_support.pair_normal``, warp_mpm's the same): two spheres (``sup_round`` 1)
+        take their line of centres; a pair of one round body takes as its normal (from ``a`` into ``b``) the other
+        body's table direction within the cone (``sup_cone``, its cosine) of the nodes' ``n`` that leaves the two
+        supports farthest apart (the separating axis, ``rigid_support.round_normal``); ``n`` otherwise, with the
+        switch off, or where no direction lies in the cone."""
         out = n
-        if self.sup_nd > 0 and self.sup_round[a] + self.sup_round[b] == 1.0:
+        if self.sup_cone <= 1.0 and self.sup_round[a] == 1.0 and self.sup_round[b] == 1.0:
+            out = (self.rb_c[b] - self.rb_c[a]).normalized()
+        elif self.sup_nd > 0 and (self.sup_round[a] > 0.0) != (self.sup_round[b] > 0.0):
             f, r, sg = a, b, ti.cast(1.0, ti.f64)
-            if self.sup_round[a] > 0.5:
+            if self.sup_round[a] > 0.0:
                 f, r, sg = b, a, ti.cast(-1.0, ti.f64)
             fn = sg * n   # out of f towards the round body
             dc = sg * (self.rb_c[b] - self.rb_c[a])
@@ -88,6 +91,29 @@ class RigidFriction:
                         top = gap
                         out = sg * e
         return out
+
+    @ti.func
+    def pair_gap(self, a, b, n):
+        """Round 91 (``gasp_core.mpm.rigid_support.pair_gap``): two spheres, or a sphere and a body that is not round,
+        the gap between the two supports along ``n`` (m, < 0 overlapping); else -1e30 (none known: every approach of
+        touching nodes removed, as before)."""
+        g = ti.cast(-1.0e30, ti.f64)
+        ra, rb = self.sup_round[a], self.sup_round[b]
+        one = (ra == 1.0 and rb == 0.0) or (ra == 0.0 and rb == 1.0)
+        if self.sup_cone <= 1.0 and self.sup_nd > 0 and ((ra == 1.0 and rb == 1.0) or one):
+            g = (n.dot(self.rb_c[b] - self.rb_c[a]) - self.sup_h[self.body_row(a, self.rb_R[a], n)]
+                 - self.sup_h[self.body_row(b, self.rb_R[b], -n)])
+        return g
+
+    @ti.func
+    def allowed_approach(self, gap, un):
+        """Round 91's speculative contact (``gasp_core.mpm.rigid_friction.allowed_approach``): the approach speed a
+        pair may keep this substep, so that it closes the gap its centres had at the step's start: ``max(gap / dt +
+        un, 0)``; 0 where no gap is known."""
+        s = ti.cast(0.0, ti.f64)
+        if gap > -1.0e29:
+            s = ti.max(gap / ti.cast(self.dt[None], ti.f64) + un, 0.0)
+        return s
 
     @ti.func
     def flat_at(self, b, row, R, t):
@@ -199,8 +225,9 @@ class RigidFriction:
     def roll_point(self, a, b, row_a, row_b, n, x_c):
         """``x_c`` moved along ``n`` onto where the bodies' surfaces meet (``gasp_core.mpm.rigid_support.
         contact_plane``; ``row_a``, ``row_b`` their table rows towards each other). Round 90: onto a round body's
-        own surface (``sup_round`` 1, its exact table), midway where both or neither are round."""
-        wa = 0.5 + 0.5 * (self.sup_round[a] - self.sup_round[b])
+        own surface (``sup_round`` 1 a sphere, 2 a cylinder: its exact table), midway where both or neither are
+        round."""
+        wa = 0.5 + 0.5 * (ti.min(self.sup_round[a], 1.0) - ti.min(self.sup_round[b], 1.0))
         plane = (wa * (self.rb_c[a].dot(n) + self.sup_h[row_a])
                  + (1.0 - wa) * (self.rb_c[b].dot(n) - self.sup_h[row_b]))
         return x_c + (plane - x_c.dot(n)) * n
@@ -229,6 +256,8 @@ class RigidFriction:
                 MA, MB = self.rb_M[a], self.rb_M[b]
                 VA, VB, wA, wB = self.rb_V[a], self.rb_V[b], self.rb_w[a], self.rb_w[b]
                 un = (VA - VB).dot(n)
+                # round 91: with the gap known, only the approach that would close it this substep (speculative)
+                un -= self.allowed_approach(self.pair_gap(a, b, n), un)
                 P = ti.cast(0.0, ti.f64)
                 if un > 0.0:   # the centres' approach, through the centres
                     P = un / (1.0 / MA + 1.0 / MB)

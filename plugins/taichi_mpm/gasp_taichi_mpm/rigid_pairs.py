@@ -34,6 +34,7 @@ class RigidPairs:
         self.pair_islands = bool(ISLANDS)   # round 81: the GPU schedule's islands (rigid_pairs_gpu)
         self.pair_pad = float(NODE_PAD)
         self.pair_rows = ti.field(ti.i32, shape=2 * ns)   # round 65: each slot's two table rows
+        self.pair_allow = ti.field(ti.f64, shape=ns)   # round 91: the approach each slot may keep (pair_normal)
         # round 81, the GPU schedule's islands (rigid_pairs_gpu): each listed pair's height, the bodies' union-find
         # roots, each root's island, each ordered pair's island, the islands' counts, starts and fill, their pairs
         self.pair_key = ti.field(ti.f64, shape=ns)
@@ -237,13 +238,16 @@ class RigidPairs:
 
     @ti.func
     def pair_normal(self, s):
-        """Slot ``s``'s unit normal from its nodes' sum, round 91's from the supports where one body is round
-        (``RigidFriction.round_normal``), written back to the sum for :meth:`pair_update`."""
+        """Slot ``s``'s unit normal from its nodes' sum, round 91's from the shapes (``RigidFriction.round_normal``),
+        written back to the sum for :meth:`pair_update`, and the approach the slot may keep this substep
+        (``RigidFriction.allowed_approach``, ``pair_allow``: 0 where no gap is known)."""
         nb = self.n_bodies
+        a, b = s // nb, s - (s // nb) * nb
         nn = ti.Vector([self.pair_acc[7 * s + 4], self.pair_acc[7 * s + 5], self.pair_acc[7 * s + 6]])
-        nn = self.round_normal(s // nb, s - (s // nb) * nb, nn / ti.max(nn.norm(), 1.0e-300))
+        nn = self.round_normal(a, b, nn / ti.max(nn.norm(), 1.0e-300))
         for ax in ti.static(range(3)):
             self.pair_acc[7 * s + 4 + ax] = nn[ax]
+        self.pair_allow[s] = self.allowed_approach(self.pair_gap(a, b, nn), (self.rb_V[a] - self.rb_V[b]).dot(nn))
         return nn
 
     @ti.func
@@ -265,7 +269,7 @@ class RigidPairs:
                              self.pair_acc[7 * s + 3]]) / self.pair_acc[7 * s]
             MA, MB = self.rb_M[a], self.rb_M[b]
             un = (self.rb_V[a] - self.rb_V[b]).dot(n)
-            P = ti.max(self.pair_lam[4 * s] + un / (1.0 / MA + 1.0 / MB), 0.0)
+            P = ti.max(self.pair_lam[4 * s] + (un - self.pair_allow[s]) / (1.0 / MA + 1.0 / MB), 0.0)   # round 91
             dP = P - self.pair_lam[4 * s]
             self.pair_lam[4 * s] = P
             self.rb_V[a] -= (dP / MA) * n

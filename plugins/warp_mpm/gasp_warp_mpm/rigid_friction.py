@@ -12,7 +12,7 @@ import warp as wp
 from gasp_core.mpm.rigid_friction import FLAT_FROM, FLAT_TO, TIP_SHARED
 
 from .precision import MODULE_OPTIONS, build_types
-from .rigid_support import body_inv, roll_flat, roll_point, round_normal, slip_at, tip
+from .rigid_support import allowed_approach, body_inv, pair_gap, roll_flat, roll_point, round_normal, slip_at, tip
 
 vec3d = wp.types.vector(3, wp.float64)
 FLAT_0 = wp.constant(wp.float64(FLAT_FROM))   # gasp_core.mpm.rigid_friction.contact_flatness's bounds
@@ -168,6 +168,9 @@ def build_rigid_pair(Ft):
             wA = spin[a]
             wB = spin[b]
             un = wp.dot(VA - VB, n)
+            # round 91: with the gap known, only the approach that would close it this substep (speculative contact)
+            un = un - allowed_approach(pair_gap(t_dirs, t_h, t_round, nd, cos_cone, a, b, rot[a], rot[b], centre[a],
+                                                centre[b], n), un, dt)
             P = wp.float64(0.0)
             if un > wp.float64(0.0):   # the centres' approach, through the centres
                 P = un / (wp.float64(1.0) / MA + wp.float64(1.0) / MB)

@@ -43,12 +43,13 @@ def build_rigid_pairs_gpu(Ft):
              gravity: vec3d, slots: wp.array(dtype=wp.int32), count: wp.array(dtype=wp.int32),
              t_dirs: wp.array(dtype=vec3d), nd: int, rows: wp.array(dtype=wp.int32), key: wp.array(dtype=wp.float64),
              t_h: wp.array(dtype=wp.float64), t_round: wp.array(dtype=wp.float64), cos_cone: wp.float64,
-             centre: wp.array(dtype=vec3d)):
+             centre: wp.array(dtype=vec3d), vel: wp.array(dtype=vec3d), dt: wp.float64,
+             allow: wp.array(dtype=wp.float64)):
         q = wp.tid()
         if q >= count[0]:
             return
         s = slots[q]
-        nn = pair_normal(acc, s, nb, t_dirs, t_h, t_round, nd, cos_cone, rot, centre)   # round 91
+        nn = pair_normal(acc, s, nb, t_dirs, t_h, t_round, nd, cos_cone, rot, centre, vel, dt, allow)   # round 91
         rows[2 * s] = body_row(t_dirs, nd, s / nb, rot[s / nb], nn)
         rows[2 * s + 1] = body_row(t_dirs, nd, s - (s / nb) * nb, rot[s - (s / nb) * nb], -nn)
         for c in range(4):
@@ -123,7 +124,7 @@ def build_rigid_pairs_gpu(Ft):
               lam: wp.array(dtype=wp.float64), sweeps: int, rows: wp.array(dtype=wp.int32),
               t_h: wp.array(dtype=wp.float64), t_curv: wp.array(dtype=mat33d), t_delta: wp.array(dtype=wp.float64),
               t_round: wp.array(dtype=wp.float64), isl_start: wp.array(dtype=wp.int32),
-              isl_list: wp.array(dtype=wp.int32), isl_n: wp.array(dtype=wp.int32)):
+              isl_list: wp.array(dtype=wp.int32), isl_n: wp.array(dtype=wp.int32), allow: wp.array(dtype=wp.float64)):
         i = wp.tid()
         if i >= isl_n[0]:
             return
@@ -131,7 +132,7 @@ def build_rigid_pairs_gpu(Ft):
         for _sweep in range(sweeps):
             for k in range(isl_start[i], isl_start[i + 1]):
                 pair_update(isl_list[k], nb, half, mass, inertia0, centre, rot, vel, spin, mu, acc, lam, rows, t_h,
-                            t_curv, t_delta, t_round)
+                            t_curv, t_delta, t_round, allow)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def advance(centre: wp.array(dtype=vec3d), vel: wp.array(dtype=vec3d), V0: wp.array(dtype=vec3d),
@@ -166,7 +167,7 @@ def islands_launches(eng, Ft) -> list:
     return [
         wp.launch(prep, dim=ns, device=d, record_cmd=True, inputs=[
             eng.rb_R, nb, eng.pair_acc, eng.pair_lam, g, eng.pair_slots, eng.pair_n, t_dirs, nd, eng.pair_rows,
-            eng.pair_key, t_h, t_round, cos_cone, eng.rb_c]),
+            eng.pair_key, t_h, t_round, cos_cone, eng.rb_c, eng.rb_V, float(eng.dt), eng.pair_allow]),
         wp.launch(bodies, dim=nb, device=d, record_cmd=True, inputs=[
             eng.rb_V, eng.pair_V0, eng.pair_root, eng.pair_isl_of, eng.pair_isl_count, eng.pair_isl_fill]),
         wp.launch(rank, dim=ns, device=d, record_cmd=True, inputs=[
@@ -177,7 +178,7 @@ def islands_launches(eng, Ft) -> list:
         wp.launch(sweep, dim=nb, device=d, record_cmd=True, inputs=[
             eng.rb_M, eng.rb_I0, eng.rb_c, eng.rb_R, eng.rb_V, eng.rb_w, affine_dx(eng.dx), nb, eng.pair_mu,
             eng.pair_acc, eng.pair_lam, int(SWEEPS), eng.pair_rows, t_h, t_curv, t_delta, t_round, eng.pair_isl_start,
-            eng.pair_isl_list, eng.pair_isl_n]),
+            eng.pair_isl_list, eng.pair_isl_n, eng.pair_allow]),
         wp.launch(advance, dim=nb, device=d, record_cmd=True, inputs=[eng.rb_c, eng.rb_V, eng.pair_V0, float(eng.dt)]),
         wp.launch(clear, dim=ns, device=d, record_cmd=True, inputs=[
             eng.pair_acc, eng.pair_slots, eng.pair_n_keep, eng.pair_seen])]

@@ -12,7 +12,7 @@ import numpy as np
 import warp as wp
 
 from .precision import MODULE_OPTIONS, build_types
-from .rigid_support import body_row, roll_flat_at, roll_point_at, round_normal, slip_at, tip
+from .rigid_support import allowed_approach, body_row, pair_gap, roll_flat_at, roll_point_at, round_normal, slip_at, tip
 
 vec3d = wp.types.vector(3, wp.float64)
 mat33d = wp.types.matrix((3, 3), wp.float64)
@@ -70,7 +70,8 @@ def build_pair_update(Ft):
                     vel: wp.array(dtype=vec3d), spin: wp.array(dtype=vec3d), mu: wp.array(dtype=wp.float64),
                     acc: wp.array(dtype=wp.float64), lam: wp.array(dtype=wp.float64), rows: wp.array(dtype=wp.int32),
                     t_h: wp.array(dtype=wp.float64), t_curv: wp.array(dtype=mat33d),
-                    t_delta: wp.array(dtype=wp.float64), t_round: wp.array(dtype=wp.float64)):
+                    t_delta: wp.array(dtype=wp.float64), t_round: wp.array(dtype=wp.float64),
+                    allow: wp.array(dtype=wp.float64)):
         a = s / nb
         b = s - a * nb
         n = vec3d(acc[7 * s + 4], acc[7 * s + 5], acc[7 * s + 6])
@@ -81,7 +82,8 @@ def build_pair_update(Ft):
             MA = mass[a]
             MB = mass[b]
             un = wp.dot(vel[a] - vel[b], n)
-            P = wp.max(lam[4 * s] + un / (wp.float64(1.0) / MA + wp.float64(1.0) / MB), wp.float64(0.0))
+            P = wp.max(lam[4 * s] + (un - allow[s]) / (wp.float64(1.0) / MA + wp.float64(1.0) / MB),
+                       wp.float64(0.0))   # round 91: less the approach the slot may keep (pair_normal)
             dP = P - lam[4 * s]
             lam[4 * s] = P
             vel[a] = vel[a] - (dP / MA) * n
@@ -145,9 +147,11 @@ def build_pair_update(Ft):
 @wp.func
 def pair_normal(acc: wp.array(dtype=wp.float64), s: int, nb: int, t_dirs: wp.array(dtype=vec3d),
                 t_h: wp.array(dtype=wp.float64), t_round: wp.array(dtype=wp.float64), nd: int, cos_cone: wp.float64,
-                rot: wp.array(dtype=mat33d), centre: wp.array(dtype=vec3d)):
-    # slot s's unit normal from its nodes' sum, round 91's from the supports where one body is round
-    # (rigid_support.round_normal), written back to the sum for pair_update; then its table rows are read from it
+                rot: wp.array(dtype=mat33d), centre: wp.array(dtype=vec3d), vel: wp.array(dtype=vec3d), dt: wp.float64,
+                allow: wp.array(dtype=wp.float64)):
+    # slot s's unit normal from its nodes' sum, round 91's from the shapes (rigid_support.round_normal), written back
+    # to the sum for pair_update (its table rows are then read from it), and the approach the slot may keep this
+    # substep (allowed_approach: 0 where no gap is known)
     a = s / nb
     b = s - a * nb
     nn = vec3d(acc[7 * s + 4], acc[7 * s + 5], acc[7 * s + 6])
@@ -155,6 +159,8 @@ def pair_normal(acc: wp.array(dtype=wp.float64), s: int, nb: int, t_dirs: wp.arr
     nn = round_normal(t_dirs, t_h, t_round, nd, cos_cone, a, b, rot[a], rot[b], centre[a], centre[b], nn)
     for ax in range(3):
         acc[7 * s + 4 + ax] = nn[ax]
+    gap = pair_gap(t_dirs, t_h, t_round, nd, cos_cone, a, b, rot[a], rot[b], centre[a], centre[b], nn)
+    allow[s] = allowed_approach(gap, wp.dot(vel[a] - vel[b], nn), dt)
     return nn
 
 
@@ -182,11 +188,11 @@ def build_rigid_pairs(Ft):
                     count: wp.array(dtype=wp.int32), seen: wp.array(dtype=wp.int32), t_dirs: wp.array(dtype=vec3d),
                     t_h: wp.array(dtype=wp.float64), t_curv: wp.array(dtype=mat33d),
                     t_delta: wp.array(dtype=wp.float64), nd: int, t_round: wp.array(dtype=wp.float64),
-                    cos_cone: wp.float64, rows: wp.array(dtype=wp.int32)):
+                    cos_cone: wp.float64, rows: wp.array(dtype=wp.int32), allow: wp.array(dtype=wp.float64)):
         n_on = count[0]
         for q in range(n_on):   # the touching pairs, insertion-sorted by (-g . x_c, slot): bottom up, ties by slot
             s = slots[q]
-            nn = pair_normal(acc, s, nb, t_dirs, t_h, t_round, nd, cos_cone, rot, centre)
+            nn = pair_normal(acc, s, nb, t_dirs, t_h, t_round, nd, cos_cone, rot, centre, vel, dt, allow)
             rows[2 * s] = body_row(t_dirs, nd, s / nb, rot[s / nb], nn)
             rows[2 * s + 1] = body_row(t_dirs, nd, s - (s / nb) * nb, rot[s - (s / nb) * nb], -nn)
             for c in range(4):
@@ -204,7 +210,7 @@ def build_rigid_pairs(Ft):
         for _sweep in range(sweeps):
             for q in range(n_on):
                 pair_update(order[q], nb, half, mass, inertia0, centre, rot, vel, spin, mu, acc, lam, rows, t_h,
-                            t_curv, t_delta, t_round)
+                            t_curv, t_delta, t_round, allow)
         for b in range(nb):
             centre[b] = centre[b] + dt * (vel[b] - V0[b])
         for q in range(n_on):   # the touching slots back to zero for the next substep
@@ -240,6 +246,7 @@ def allocate_pairs(eng, view) -> None:
     eng.pair_rows = wp.zeros(2 * ns, dtype=wp.int32, device=d)   # round 65: each slot's two table rows
     nbi = nb if many else 1   # round 81: the gpu schedule's islands (build_rigid_pairs_gpu)
     eng.pair_key = wp.zeros(ns, dtype=wp.float64, device=d)
+    eng.pair_allow = wp.zeros(ns, dtype=wp.float64, device=d)   # round 91: the approach each slot may keep
     eng.pair_isl = wp.zeros(ns, dtype=wp.int32, device=d)
     eng.pair_isl_list = wp.zeros(ns, dtype=wp.int32, device=d)
     eng.pair_root, eng.pair_isl_of = (wp.zeros(nbi, dtype=wp.int32, device=d) for _ in range(2))
@@ -276,4 +283,4 @@ def pairs_launches(eng, Ft) -> list:
         eng.rb_M, eng.rb_I0, eng.rb_c, eng.rb_R, eng.rb_V, eng.rb_w, eng.pair_V0, float(eng.dt), affine_dx(eng.dx),
         len(eng.setup.materials), eng.pair_mu, eng.pair_acc, eng.pair_lam, eng.pair_order,
         vec3d(*[float(g) for g in eng.setup.gravity]), int(SWEEPS), eng.pair_slots, eng.pair_n, eng.pair_seen,
-        *eng.rb_tables, eng.pair_rows])]
+        *eng.rb_tables, eng.pair_rows, eng.pair_allow])]

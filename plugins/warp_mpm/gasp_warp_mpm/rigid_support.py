@@ -89,7 +89,7 @@ def roll_point_at(h: wp.array(dtype=wp.float64), rnd: wp.array(dtype=wp.float64)
                   row_b: int, cA: vec3d, cB: vec3d, n: vec3d, x_c: vec3d):
     # gasp_core.mpm.rigid_support.contact_plane: the contact point moved along n onto where the surfaces meet;
     # round 90: onto a round body's own surface (rnd 1, its exact table), midway where both or neither are round
-    wa = wp.float64(0.5) + wp.float64(0.5) * (rnd[a] - rnd[b])
+    wa = wp.float64(0.5) + wp.float64(0.5) * (wp.min(rnd[a], wp.float64(1.0)) - wp.min(rnd[b], wp.float64(1.0)))
     plane = wa * (wp.dot(cA, n) + h[row_a]) + (wp.float64(1.0) - wa) * (wp.dot(cB, n) - h[row_b])
     return x_c + (plane - wp.dot(x_c, n)) * n
 
@@ -104,17 +104,20 @@ def roll_point(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), rnd: 
 @wp.func
 def round_normal(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), rnd: wp.array(dtype=wp.float64), nd: int,
                  cos_cone: wp.float64, a: int, b: int, RA: mat33d, RB: mat33d, cA: vec3d, cB: vec3d, n: vec3d):
-    # round 91 (gasp_core.mpm.rigid_support.round_normal): a pair of one round body takes as its normal (from A into
-    # B) the other body's table direction within the cone of the nodes' n that leaves the two supports farthest apart
-    # (the separating axis); n where neither or both are round, or no direction lies in the cone
+    # round 91 (gasp_core.mpm.rigid_support.pair_normal): two spheres (rnd 1) take their line of centres; a pair of
+    # one round body takes as its normal (from A into B) the other body's table direction within the cone of the
+    # nodes' n that leaves the two supports farthest apart (the separating axis, rigid_support.round_normal); n
+    # otherwise, with the switch off (cos_cone > 1), or where no direction lies in the cone
     out = n
-    if nd > 0 and rnd[a] + rnd[b] == wp.float64(1.0):
+    if cos_cone <= wp.float64(1.0) and rnd[a] == wp.float64(1.0) and rnd[b] == wp.float64(1.0):
+        out = wp.normalize(cB - cA)
+    elif nd > 0 and (rnd[a] > wp.float64(0.0)) != (rnd[b] > wp.float64(0.0)):
         f = a
         r = b
         Rf = RA
         Rr = RB
         sg = wp.float64(1.0)
-        if rnd[a] > wp.float64(0.5):
+        if rnd[a] > wp.float64(0.0):
             f = b
             r = a
             Rf = RB
@@ -131,6 +134,32 @@ def round_normal(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), rnd
                     top = gap
                     out = sg * e
     return out
+
+
+@wp.func
+def pair_gap(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), rnd: wp.array(dtype=wp.float64), nd: int,
+             cos_cone: wp.float64, a: int, b: int, RA: mat33d, RB: mat33d, cA: vec3d, cB: vec3d, n: vec3d):
+    # round 91 (gasp_core.mpm.rigid_support.pair_gap): two spheres, or a sphere and a body that is not round, the gap
+    # between the two supports along n (m, < 0 overlapping); else -1e30 (none known: the law as before, every approach
+    # of touching nodes removed)
+    g = wp.float64(-1.0e30)
+    ka = rnd[a]
+    kb = rnd[b]
+    one = (ka == wp.float64(1.0) and kb == wp.float64(0.0)) or (ka == wp.float64(0.0) and kb == wp.float64(1.0))
+    if cos_cone <= wp.float64(1.0) and nd > 0 and ((ka == wp.float64(1.0) and kb == wp.float64(1.0)) or one):
+        g = (wp.dot(n, cB - cA) - h[body_row(dirs, nd, a, RA, n)] - h[body_row(dirs, nd, b, RB, -n)])
+    return g
+
+
+@wp.func
+def allowed_approach(gap: wp.float64, un: wp.float64, dt: wp.float64):
+    # round 91's speculative contact (gasp_core.mpm.rigid_friction.allowed_approach): the approach speed the pair may
+    # keep this substep so that it closes the gap its centres had at the step's start, max(gap / dt + un, 0); 0 where
+    # no gap is known
+    s = wp.float64(0.0)
+    if gap > wp.float64(-1.0e29):
+        s = wp.max(gap / dt + un, wp.float64(0.0))
+    return s
 
 
 @wp.func
