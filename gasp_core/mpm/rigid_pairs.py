@@ -96,14 +96,16 @@ def pair_data(setup) -> tuple:
 #: the two bodies' supports (``docs/rigid.md`` "Round 90: a round body on another rigid body"). 0: round 65's tables of
 #: its points and the midway plane (the broken variant the catches use; a Python switch, read at build time).
 ROUND_PAIR = 1
-#: Round 91: a pair of one round body and one that is not takes its contact normal from the two bodies' supports
-#: (``rigid_support.round_normal``, the separating axis) within :data:`NORMAL_CONE` degrees of the touching nodes'
-#: normal (``docs/rigid.md`` "Round 91: the normal of a round body's contact"). 0: the nodes' normal (the broken variant
-#: the catches use; read at build time, with ``ROUND_PAIR``).
+#: Round 91: the pair's normal from the shapes (``rigid_support.pair_normal``): a pair of one round body and one that is
+#: not takes the separating axis of the two supports (``rigid_support.round_normal``) within :data:`NORMAL_CONE`
+#: degrees of the touching nodes' normal, two spheres their line of centres, and a sphere's pair keeps the approach
+#: that only closes its gap (``rigid_friction.allowed_approach``; ``docs/rigid.md`` "Round 91: the normal of a round
+#: body's contact"). 0: the nodes' normal and touch (the broken variant the catches use; read at build time, with
+#: ``ROUND_PAIR``).
 ROUND_NORMAL = 1
 #: The search cone's half-angle, degrees: wider than the tables' Fibonacci spacing (about 13 degrees for 256
-#: directions), so a row always lies inside it, and ten times the nodes' normal's lean measured on a rolling cylinder
-#: (1-2 degrees).
+#: directions), so a row always lies inside it, and well beyond the nodes' normal's lean measured on a rolling
+#: cylinder (1-2 degrees).
 NORMAL_CONE = 20.0
 
 
