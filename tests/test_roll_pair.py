@@ -154,3 +154,16 @@ def test_a_round_bodys_normal_is_the_separating_axis_of_the_supports():
     n = rigid_support.round_normal(box, I, np.zeros(3), ball, I, beyond, np.array([0.6, 0.0, 0.8]), cone)
     assert np.degrees(np.arccos(n @ np.array([0.6, 0.0, 0.8]))) < 13.0 and n[0] > 0.3   # the rows 13 deg apart
     assert np.allclose(rigid_support.round_normal(box, I, np.zeros(3), ball, I, over, lean, 2.0), lean)
+
+
+def test_a_ball_in_a_concave_part_keeps_the_nodes_normal():
+    """Round 91: a table is the body's hull, so a ball resting inside a bowl (here the hull of a 30 cm box whose
+    inside it sits in, 8 cm below its rim) reads deep inside it; the separating axis is not the contact there and the
+    nodes' normal stands (``rigid_support.ROUND_DEEP``)."""
+    d = table_directions(np.zeros((1, 3)))
+    ball = (d, *round_table(d, np.array([0.05, 0.0, 0.0, 0.0, 0.0])))
+    bowl = (d, np.abs(d) @ np.array([0.15, 0.15, 0.06]))
+    inside = np.array([0.0, 0.0, 0.06 - 0.08 + 0.05])   # its bottom 8 cm below the rim, on the bowl's floor there
+    cone, lean = np.cos(np.radians(rigid_pairs.NORMAL_CONE)), np.array([np.sin(0.2), 0.0, np.cos(0.2)])
+    assert np.allclose(rigid_support.round_normal(bowl, np.eye(3), np.zeros(3), ball, np.eye(3), inside, lean, cone),
+                       lean)

@@ -5,6 +5,7 @@ Taichi funcs mixed into :class:`gasp_taichi_mpm.rigid.Rigid`; the NumPy referenc
 import taichi as ti
 
 from gasp_core.mpm.rigid_friction import FLAT_FROM, FLAT_TO, TIP_SHARED
+from gasp_core.mpm.rigid_support import ROUND_DEEP
 
 
 @ti.func
@@ -83,13 +84,18 @@ class RigidFriction:
             dc = sg * (self.rb_c[b] - self.rb_c[a])
             Rf, Rr = self.rb_R[f], self.rb_R[r]
             top = ti.cast(-1.0e30, ti.f64)
+            hr = ti.cast(0.0, ti.f64)
             for i in range(self.sup_nd):
                 e = Rf @ self.sup_dirs[f * self.sup_nd + i]
                 if e.dot(fn) >= self.sup_cone:
-                    gap = e.dot(dc) - self.sup_h[f * self.sup_nd + i] - self.sup_h[self.body_row(r, Rr, -e)]
+                    h_r = self.sup_h[self.body_row(r, Rr, -e)]
+                    gap = e.dot(dc) - self.sup_h[f * self.sup_nd + i] - h_r
                     if gap > top:
                         top = gap
+                        hr = h_r
                         out = sg * e
+            if top < -ROUND_DEEP * hr:   # deeper in the other body's hull than a contact can be: concave, the nodes'
+                out = n
         return out
 
     @ti.func

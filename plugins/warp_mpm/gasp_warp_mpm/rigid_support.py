@@ -10,11 +10,13 @@ import numpy as np
 import warp as wp
 
 from gasp_core.mpm.rigid_friction import FLAT_FROM, FLAT_TO
+from gasp_core.mpm.rigid_support import ROUND_DEEP
 
 vec3d = wp.types.vector(3, wp.float64)
 mat33d = wp.types.matrix((3, 3), wp.float64)
 FLAT_0 = wp.constant(wp.float64(FLAT_FROM))
 FLAT_W = wp.constant(wp.float64(FLAT_TO - FLAT_FROM))
+DEEP = wp.constant(wp.float64(ROUND_DEEP))
 
 
 def support_arrays(data, device, nb: int) -> tuple:
@@ -126,13 +128,18 @@ def round_normal(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), rnd
         fn = sg * n   # out of f towards the round body
         dc = sg * (cB - cA)
         top = wp.float64(-1.0e30)
+        hr = wp.float64(0.0)
         for i in range(nd):
             e = Rf * dirs[f * nd + i]
             if wp.dot(e, fn) >= cos_cone:
-                gap = wp.dot(e, dc) - h[f * nd + i] - h[body_row(dirs, nd, r, Rr, -e)]
+                h_r = h[body_row(dirs, nd, r, Rr, -e)]
+                gap = wp.dot(e, dc) - h[f * nd + i] - h_r
                 if gap > top:
                     top = gap
+                    hr = h_r
                     out = sg * e
+        if top < -DEEP * hr:   # deeper in the other body's hull than a contact can be: a concave part, the nodes' n
+            out = n
     return out
 
 
