@@ -241,10 +241,8 @@ def pair_contact(A, B, x_c, n, mu: float, flat=1.0, plane=None, allow: float = 0
     A, B : tuple
         Each body's ``(V, w, inertia, M, c)``: velocity (m/s, shape (3,)), spin (rad/s, (3,)), inertia at its pose
         (kg m^2, (3, 3)), mass (kg), mass centre (m, (3,)); A the body of field A.
-    x_c : array_like, shape (3,)
-        The contact's centre, m.
-    n : array_like, shape (3,)
-        The contact's unit normal, from A into B.
+    x_c, n : array_like, shape (3,)
+        The contact's centre (m) and unit normal, from A into B.
     mu : float
         The pair's coefficient (:func:`gasp_core.mpm.fields.field_friction`).
     flat : float or callable
@@ -255,7 +253,7 @@ def pair_contact(A, B, x_c, n, mu: float, flat=1.0, plane=None, allow: float = 0
         point is moved along ``n`` onto it (the lever of a rolling body's friction reaches its surface) and the slip
         taken there. None: at ``x_c``.
     allow : float
-        Round 91: the approach the pair may keep, m/s (:func:`allowed_approach`; 0: every approach removed).
+        Round 91: the approach kept, m/s (:func:`allowed_approach`; 0: all removed).
 
     Returns
     -------

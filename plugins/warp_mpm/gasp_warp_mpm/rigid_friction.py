@@ -140,7 +140,9 @@ def build_rigid_contact(Ft):
 def build_rigid_pair(Ft):
     """``rigid_pair`` (float64; ``gasp_core.mpm.rigid_friction.pair_contact``, taichi_mpm's ``rigid_pair``), one thread
     after ``rigid_update``: the contact from the nodes' sums ``acc`` (cleared), the approach removed through the
-    centres, Coulomb's friction (round 65: a round body rolls, the support tables ``t_*``); the centres advance."""
+    centres, Coulomb's friction (round 65: a round body rolls, the support tables ``t_*``); the centres advance. It is
+    long because the law's steps (round 91's normal and gap, the approach, the friction, the rolling, the advance)
+    share the one kernel's locals, as taichi_mpm's ``rigid_pair`` does."""
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def rigid_pair(in_a: wp.array(dtype=wp.int32), mass: wp.array(dtype=wp.float64),
@@ -157,9 +159,9 @@ def build_rigid_pair(Ft):
         n = vec3d(acc[4], acc[5], acc[6])
         ln = wp.length(n)
         if W > wp.float64(0.0) and ln > wp.float64(0.0):
-            n = n / ln
-            # round 91: one round body, the normal from the supports (the separating axis)
-            n = round_normal(t_dirs, t_h, t_round, nd, cos_cone, a, b, rot[a], rot[b], centre[a], centre[b], n)
+            # round 91: the normal from the shapes; with a gap known, only the approach that closes it this substep
+            n = round_normal(t_dirs, t_h, t_round, nd, cos_cone, a, b, rot[a], rot[b], centre[a], centre[b], n / ln)
+            g = pair_gap(t_dirs, t_h, t_round, nd, cos_cone, a, b, rot[a], rot[b], centre[a], centre[b], n)
             x_c = vec3d(acc[1], acc[2], acc[3]) / W
             MA = mass[a]
             MB = mass[b]
@@ -168,9 +170,7 @@ def build_rigid_pair(Ft):
             wA = spin[a]
             wB = spin[b]
             un = wp.dot(VA - VB, n)
-            # round 91: with the gap known, only the approach that would close it this substep (speculative contact)
-            un = un - allowed_approach(pair_gap(t_dirs, t_h, t_round, nd, cos_cone, a, b, rot[a], rot[b], centre[a],
-                                                centre[b], n), un, dt)
+            un = un - allowed_approach(g, un, dt)
             P = wp.float64(0.0)
             if un > wp.float64(0.0):   # the centres' approach, through the centres
                 P = un / (wp.float64(1.0) / MA + wp.float64(1.0) / MB)

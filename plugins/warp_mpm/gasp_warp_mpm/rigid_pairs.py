@@ -62,16 +62,15 @@ def build_node_slot(Ft):
 @functools.cache
 def build_pair_update(Ft):
     """``pair_update`` (float64; ``gasp_core.mpm.rigid_pairs._pair_update``): slot ``s``'s normal impulse ``lam[4 s]``
-    >= 0, its friction on B ``lam[4 s + 1 : 4 s + 4]`` in the disk, ``f`` of the relative tipping spin held."""
+    >= 0 (on its approach less round 91's ``allow``), friction ``lam[4 s + 1 : 4 s + 4]`` in the disk, ``f`` held."""
 
     @wp.func
     def pair_update(s: int, nb: int, half: wp.float64, mass: wp.array(dtype=wp.float64),
                     inertia0: wp.array(dtype=mat33d), centre: wp.array(dtype=vec3d), rot: wp.array(dtype=mat33d),
                     vel: wp.array(dtype=vec3d), spin: wp.array(dtype=vec3d), mu: wp.array(dtype=wp.float64),
                     acc: wp.array(dtype=wp.float64), lam: wp.array(dtype=wp.float64), rows: wp.array(dtype=wp.int32),
-                    t_h: wp.array(dtype=wp.float64), t_curv: wp.array(dtype=mat33d),
-                    t_delta: wp.array(dtype=wp.float64), t_round: wp.array(dtype=wp.float64),
-                    allow: wp.array(dtype=wp.float64)):
+                    t_h: wp.array(dtype=wp.float64), t_curv: wp.array(dtype=mat33d), t_delta: wp.array(dtype=wp.float64),
+                    t_round: wp.array(dtype=wp.float64), allow: wp.array(dtype=wp.float64)):
         a = s / nb
         b = s - a * nb
         n = vec3d(acc[7 * s + 4], acc[7 * s + 5], acc[7 * s + 6])
@@ -82,8 +81,7 @@ def build_pair_update(Ft):
             MA = mass[a]
             MB = mass[b]
             un = wp.dot(vel[a] - vel[b], n)
-            P = wp.max(lam[4 * s] + (un - allow[s]) / (wp.float64(1.0) / MA + wp.float64(1.0) / MB),
-                       wp.float64(0.0))   # round 91: less the approach the slot may keep (pair_normal)
+            P = wp.max(lam[4 * s] + (un - allow[s]) / (wp.float64(1.0) / MA + wp.float64(1.0) / MB), wp.float64(0.0))
             dP = P - lam[4 * s]
             lam[4 * s] = P
             vel[a] = vel[a] - (dP / MA) * n
