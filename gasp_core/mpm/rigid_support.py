@@ -28,6 +28,11 @@ from .rigid_friction import FLAT_FROM, FLAT_TO
 #: concave part) reads as deep inside it, while a real contact, found by the touching nodes, is within a fraction of a
 #: cell (a resting 10 cm ball 0.2 mm). Deeper, the nodes' normal stands.
 ROUND_DEEP = 0.25
+#: Round 92 (:mod:`gasp_core.mpm.hollow`): the plane fit's reach beyond the nearest outer point, in the body's point
+#: spacings (:func:`hollow_normal`).
+HOLLOW_WINDOW = 2.0
+#: Round 92: power steps of the fit's least-spread direction (the eigenvalues' ratio is about 1/2 on a surface patch).
+HOLLOW_POWER_STEPS = 24
 #: The number of Fibonacci directions of a table (the rest-frame axes and the body's principal axes are added).
 N_DIRS = 256
 #: The band's depth in point spacings: the fit's points (a lattice ball of radius 3-9 spacings read round along
@@ -164,7 +169,7 @@ def contact_plane(table_a, R_a, c_a, table_b, R_b, c_b, n, round_a: bool = False
             + (1.0 - w) * (float(np.dot(c_b, n)) - support(table_b, R_b, -n)))
 
 
-def round_normal(table_f, R_f, c_f, table_r, R_r, c_r, n, cos_cone: float) -> np.ndarray:
+def round_normal(table_f, R_f, c_f, table_r, R_r, c_r, n, cos_cone: float, outer=None) -> np.ndarray:
     """Round 91: the normal of a round body's contact with a body that is not round, from their supports (the
     separating axis), not from the touching nodes (``docs/rigid.md`` "Round 91: the normal of a round body's contact").
 
@@ -174,9 +179,10 @@ def round_normal(table_f, R_f, c_f, table_r, R_r, c_r, n, cos_cone: float) -> np
     (where ``f``'s support is its table's, exact: a box's face normals are rows), the round body's support read at its
     nearest row (a sphere's is ``R`` in every row). A table is the body's hull: where the best axis still puts the round
     body more than :data:`ROUND_DEEP` of its support inside it, the contact is in a concave part (a ball in a bowl)
-    and the nodes' ``n`` stands. The nodes' normal (field B's mass gradient) leaned 1-2 degrees
-    ahead of a rolling 10 cm cylinder and its contact centre lagged 7 mm behind: the approach removed along the leaning
-    normal let the body sink 1.7 mm into a slab in 0.3 s and roll 3.4 % fast.
+    and the nodes' ``n`` stands, or, for a sphere, round 92's normal from ``f``'s outer points nearest its centre
+    (``outer``, :func:`hollow_normal`). The nodes' normal (field B's mass gradient) leaned 1-2
+    degrees ahead of a rolling 10 cm cylinder and its contact centre lagged 7 mm behind: the approach removed along
+    the leaning normal let the body sink 1.7 mm into a slab in 0.3 s and roll 3.4 % fast.
 
     Parameters
     ----------
@@ -191,6 +197,9 @@ def round_normal(table_f, R_f, c_f, table_r, R_r, c_r, n, cos_cone: float) -> np
         The nodes' unit normal, out of ``f`` towards the round body.
     cos_cone : float
         The cosine of the search cone's half-angle (:data:`gasp_core.mpm.rigid_pairs.NORMAL_CONE`); above 1: ``n``.
+    outer : tuple, optional
+        Round 92, for a sphere: ``(X_f, s_f)``, ``f``'s outer points ((k, 3) m, rest frame) and spacing (m),
+        :func:`gasp_core.mpm.hollow.hollow_data`'s; None: the nodes' ``n`` in a concave part.
 
     Returns
     -------
@@ -207,11 +216,14 @@ def round_normal(table_f, R_f, c_f, table_r, R_r, c_r, n, cos_cone: float) -> np
     gaps = [float(E[i] @ dc) - float(table_f[1][i]) - hr for i, hr in zip(inside, h_r)]
     k = int(np.argmax(gaps))
     if gaps[k] < -ROUND_DEEP * h_r[k]:   # deeper in the hull than a contact can be: a concave part of it
-        return n
+        if outer is None:
+            return n
+        return hollow_normal(outer[0], outer[1], R_f, c_f, c_r, n)
     return E[inside[k]].copy()
 
 
-def pair_normal(table_a, R_a, c_a, kind_a: float, table_b, R_b, c_b, kind_b: float, n, cos_cone: float) -> np.ndarray:
+def pair_normal(table_a, R_a, c_a, kind_a: float, table_b, R_b, c_b, kind_b: float, n, cos_cone: float,
+                outer_a=None, outer_b=None) -> np.ndarray:
     """Round 91, the rule both engines' pair laws follow for a pair's normal (unit, from A into B): two spheres (kind
     1, ``rigid_pairs.support_data``'s round column) take their line of centres (exact: the struck ball of an oblique
     frictionless impact moved 5.5 degrees off it on the nodes' normal); one round body and one that is not take
@@ -232,6 +244,9 @@ def pair_normal(table_a, R_a, c_a, kind_a: float, table_b, R_b, c_b, kind_b: flo
         The touching nodes' unit normal, from A into B.
     cos_cone : float
         :func:`round_normal`'s cone.
+    outer_a, outer_b : tuple, optional
+        Round 92: each body's ``(outer points, spacing)`` (:func:`gasp_core.mpm.hollow.hollow_data`), read for the
+        body that is not round when the other is a sphere in a concave part of it.
 
     Returns
     -------
@@ -245,8 +260,8 @@ def pair_normal(table_a, R_a, c_a, kind_a: float, table_b, R_b, c_b, kind_b: flo
         return d / np.linalg.norm(d)
     if (kind_a > 0.0) != (kind_b > 0.0):
         if kind_b > 0.0:
-            return round_normal(table_a, R_a, c_a, table_b, R_b, c_b, n, cos_cone)
-        return -round_normal(table_b, R_b, c_b, table_a, R_a, c_a, -n, cos_cone)
+            return round_normal(table_a, R_a, c_a, table_b, R_b, c_b, n, cos_cone, outer_a if kind_b == 1.0 else None)
+        return -round_normal(table_b, R_b, c_b, table_a, R_a, c_a, -n, cos_cone, outer_b if kind_a == 1.0 else None)
     return n
 
 
@@ -292,3 +307,46 @@ def pair_flatness(table_a, R_a, table_b, R_b, n, t) -> float:
         return 1.0
     n = np.asarray(n, np.float64)
     return min(body_flatness(table_a, R_a, n, t), body_flatness(table_b, R_b, -n, t))
+
+
+def hollow_normal(X_f, s_f: float, R_f, c_f, c_r, n) -> np.ndarray:
+    """Round 92: the unit normal out of body ``f`` towards a sphere's centre ``c_r`` (m), the plane fitted to ``f``'s
+    outer points nearest it (:mod:`gasp_core.mpm.hollow`'s notes: within ``d_min + HOLLOW_WINDOW s_f``, weighted,
+    the least spread by power steps from ``n``, turned towards ``c_r``).
+
+    Parameters
+    ----------
+    X_f : array_like, shape (k, 3)
+        ``f``'s outer points in its rest frame, m (:func:`gasp_core.mpm.hollow.outer_points`).
+    s_f : float
+        Its point spacing, m.
+    R_f : array_like, shape (3, 3)
+        Its rotation.
+    c_f, c_r : array_like, shape (3,)
+        Its mass centre and the sphere's centre, m.
+    n : array_like, shape (3,)
+        The touching nodes' unit normal, out of ``f``: the power steps' start.
+
+    Returns
+    -------
+    ndarray, shape (3,)
+        The unit normal out of ``f``; ``n`` where ``f`` has no outer points.
+    """
+    X_f = np.asarray(X_f, np.float64)
+    if not len(X_f) or not s_f > 0.0:
+        return np.asarray(n, np.float64)
+    R_f = np.asarray(R_f, np.float64)
+    q = R_f.T @ (np.asarray(c_r, np.float64) - np.asarray(c_f, np.float64))
+    Y = X_f - q
+    d = np.linalg.norm(Y, axis=1)
+    w = np.clip(1.0 - (d - d.min()) / (HOLLOW_WINDOW * s_f), 0.0, None) ** 2
+    y = (w[:, None] * Y).sum(0) / w.sum()
+    C = np.einsum("n,ni,nj->ij", w, Y, Y) / w.sum() - np.outer(y, y)
+    M = np.trace(C) * np.eye(3) - C
+    m = R_f.T @ np.asarray(n, np.float64)
+    for _ in range(HOLLOW_POWER_STEPS):
+        m = M @ m
+        m = m / np.linalg.norm(m)
+    if m @ y > 0.0:   # towards the sphere's centre, away from the points' mean
+        m = -m
+    return R_f @ m

@@ -235,7 +235,7 @@ class TaichiMPMEngine(GridEngineBase, StateClock):
         self.solver.set_restitution(body_table(setup), plane_table(setup, self.solver.n_planes), rest_speed(setup),
                                     face_counts(setup), ground_shapes(setup))
         self.solver.allocate_rigid_hold(*hold_setup(setup, setup.dx, flows, any_rigid), flows)
-        self.solver.set_pairs(*pair_data(setup), support=support_data(setup))
+        self.solver.set_pairs(*pair_data(setup), support=support_data(setup), setup=setup)   # round 92: setup
 
     def _extras(self, setup: SimSetup) -> dict[str, Any]:
         """Colliders, forces and impulses for the solver (``gasp_core.colliders.model``); none: nothing."""

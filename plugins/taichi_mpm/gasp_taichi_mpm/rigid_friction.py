@@ -5,7 +5,7 @@ Taichi funcs mixed into :class:`gasp_taichi_mpm.rigid.Rigid`; the NumPy referenc
 import taichi as ti
 
 from gasp_core.mpm.rigid_friction import FLAT_FROM, FLAT_TO, TIP_SHARED
-from gasp_core.mpm.rigid_support import ROUND_DEEP
+from gasp_core.mpm.rigid_support import HOLLOW_POWER_STEPS, HOLLOW_WINDOW, ROUND_DEEP
 
 
 @ti.func
@@ -23,14 +23,16 @@ class RigidFriction:
     the contact of two rigid bodies, after it (``Rigid.rigid_step``), with round 65's support tables
     (:meth:`set_support`, :meth:`body_row`, :meth:`flat_at`)."""
 
-    def set_support(self, data) -> None:
+    def set_support(self, data, hollow=None) -> None:
         """The bodies' support tables (``gasp_core.mpm.rigid_pairs.support_data``: directions, supports, curvature
         tensors, bands, rows per body ``nd``, round 90's round bodies) as fields ``sup_*``; None: no table for any
         body (every band 0: every contact a face's), zero fields allocated once and nothing uploaded (round 66,
         docs/reliability.md: the empty tables' eight ``from_numpy`` calls, each a Taichi kernel turned into IR, cost
         about 0.4 s of every engine built; with every band 0 no table row is read: ``body_row`` loops ``sup_nd`` = 0 times, ``flat_at`` reads
-        ``sup_delta`` alone and returns 1, and ``roll_point`` runs only where the flatness is under 1)."""
+        ``sup_delta`` alone and returns 1, and ``roll_point`` runs only where the flatness is under 1). ``hollow``:
+        round 92's outer points (``gasp_core.mpm.hollow.hollow_data``) as ``hol_*``; None: none."""
         import numpy as np
+        self.set_hollow(hollow)
         if data is None:
             if not getattr(self, "sup_empty", False):
                 nb = max(int(self.n_bodies), 1)
@@ -51,6 +53,61 @@ class RigidFriction:
         for f, a in ((self.sup_dirs, dirs), (self.sup_h, h), (self.sup_curv, curv), (self.sup_delta, delta),
                      (self.sup_round, rnd)):
             f.from_numpy(np.asarray(a, np.float64))
+
+    def set_hollow(self, hollow) -> None:
+        """Round 92: the outer points of the bodies a sphere meets in a hollow (``X`` rest frames, ``start`` per
+        body, ``spacing`` per body: ``gasp_core.mpm.hollow.hollow_data``) as ``hol_X``, ``hol_start``, ``hol_s``;
+        None: one unread point and no body's rows, allocated once."""
+        import numpy as np
+        if hollow is None:
+            if getattr(self, "hol_X", None) is None:
+                nb = max(int(self.n_bodies), 1)
+                self.hol_X = ti.Vector.field(3, ti.f64, shape=1)
+                self.hol_start = ti.field(ti.i32, shape=nb + 1)
+                self.hol_s = ti.field(ti.f64, shape=nb)
+            return
+        X, start, spacing = hollow
+        self.hol_X = ti.Vector.field(3, ti.f64, shape=len(X))
+        self.hol_start = ti.field(ti.i32, shape=len(start))
+        self.hol_s = ti.field(ti.f64, shape=len(spacing))
+        self.hol_X.from_numpy(np.asarray(X, np.float64))
+        self.hol_start.from_numpy(np.asarray(start, np.int32))
+        self.hol_s.from_numpy(np.asarray(spacing, np.float64))
+
+    @ti.func
+    def hollow_normal(self, f, cr, fn):
+        """Round 92 (``gasp_core.mpm.hollow.hollow_normal``): the normal out of body ``f`` towards a sphere's centre
+        ``cr``, the least spread of ``f``'s outer points within ``d_min + WINDOW s`` of it, weighted ``(1 - (d -
+        d_min) / (WINDOW s))^2`` (power steps of ``tr(C) I - C`` from the nodes' ``fn``, turned towards ``cr``);
+        ``fn`` where ``f`` has none."""
+        Rf = self.rb_R[f]
+        q = Rf.transpose() @ (cr - self.rb_c[f])
+        reach = HOLLOW_WINDOW * self.hol_s[f]
+        d_min = ti.cast(1.0e30, ti.f64)
+        for i in range(self.hol_start[f], self.hol_start[f + 1]):
+            d_min = ti.min(d_min, (self.hol_X[i] - q).norm())
+        W = ti.cast(0.0, ti.f64)
+        y = ti.Vector([0.0, 0.0, 0.0], ti.f64)
+        S = ti.Matrix.zero(ti.f64, 3, 3)
+        for i in range(self.hol_start[f], self.hol_start[f + 1]):
+            Y = self.hol_X[i] - q
+            t = 1.0 - (Y.norm() - d_min) / reach
+            if t > 0.0:
+                W += t * t
+                y += (t * t) * Y
+                S += (t * t) * Y.outer_product(Y)
+        out = fn
+        if W > 0.0:
+            y = y / W
+            C = S / W - y.outer_product(y)
+            M = C.trace() * ti.Matrix.identity(ti.f64, 3) - C
+            m = Rf.transpose() @ fn
+            for _k in range(HOLLOW_POWER_STEPS):
+                m = (M @ m).normalized()
+            if m.dot(y) > 0.0:
+                m = -m
+            out = Rf @ m
+        return out
 
     @ti.func
     def body_row(self, b, R, d):
@@ -96,6 +153,8 @@ class RigidFriction:
                         out = sg * e
             if top < -ROUND_DEEP * hr:   # deeper in the other body's hull than a contact can be: concave, the nodes'
                 out = n
+                if self.sup_round[r] == 1.0:   # round 92: a sphere in a hollow, from f's outer points
+                    out = sg * self.hollow_normal(f, self.rb_c[r], fn)
         return out
 
     @ti.func

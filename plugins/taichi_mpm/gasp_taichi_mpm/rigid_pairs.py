@@ -48,12 +48,14 @@ class RigidPairs:
         self.pair_isl_n = ti.field(ti.i32, shape=())
         self.set_support(None)   # round 65's tables: none until set_pairs
 
-    def set_pairs(self, boxes, mus, collider=None, support=None) -> None:
+    def set_pairs(self, boxes, mus, collider=None, support=None, setup=None) -> None:
         """Each rigid body's box (``rigid_pairs.body_boxes``, shape (n_bodies, 2, 3), m) and each slot's ``mu``
         (``pair_frictions``); nothing unless ``pair_many``. ``collider``: round 63's (rigid_collider.py); ``support``
-        round 65's tables (``rigid_pairs.support_data``, ``RigidFriction.set_support``)."""
+        round 65's tables (``rigid_pairs.support_data``, ``RigidFriction.set_support``); ``setup`` gives round 92's
+        outer points (``gasp_core.mpm.hollow.hollow_data``) where there are tables."""
+        from gasp_core.mpm.hollow import hollow_data
         self.allocate_collider(collider)
-        self.set_support(support)
+        self.set_support(support, None if support is None or setup is None else hollow_data(setup, support[5]))
         if self.pair_many:
             self.pair_box.from_numpy(np.asarray(boxes, np.float64).reshape(-1, 3))
             self.pair_mu.from_numpy(np.asarray(mus, np.float64))

@@ -346,7 +346,7 @@ class RigidBodies:
         if self.pair == 1:   # two rigid bodies: their contact as one, before their points take the pose
             from gasp_core.mpm.rigid_pairs import support_data   # round 65: the bodies' support tables (rolling)
             from .rigid_support import support_arrays
-            self.rb_tables = support_arrays(support_data(self.setup), d, len(self.setup.materials))
+            self.rb_tables = support_arrays(support_data(self.setup), d, len(self.setup.materials), self.setup)
             out.insert(2, wp.launch(build_rigid_pair(Ft), dim=1, device=d, record_cmd=True, inputs=[
                 self.in_a, self.rb_M, self.rb_I0, self.rb_c, self.rb_R, self.rb_V, self.rb_w, dt, dxa,
                 float(self.field_mu), self.pair_acc, *self.rb_tables]))

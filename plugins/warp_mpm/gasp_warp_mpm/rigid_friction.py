@@ -12,7 +12,8 @@ import warp as wp
 from gasp_core.mpm.rigid_friction import FLAT_FROM, FLAT_TO, TIP_SHARED
 
 from .precision import MODULE_OPTIONS, build_types
-from .rigid_support import allowed_approach, body_inv, pair_gap, roll_flat, roll_point, round_normal, slip_at, tip
+from .rigid_support import (Hollow, allowed_approach, body_inv, pair_gap, roll_flat, roll_point, round_normal, slip_at,
+                            tip)
 
 vec3d = wp.types.vector(3, wp.float64)
 FLAT_0 = wp.constant(wp.float64(FLAT_FROM))   # gasp_core.mpm.rigid_friction.contact_flatness's bounds
@@ -150,7 +151,7 @@ def build_rigid_pair(Ft):
                    vel: wp.array(dtype=vec3d), spin: wp.array(dtype=vec3d), dt: wp.float64, dx: wp.float64,
                    mu: wp.float64, acc: wp.array(dtype=wp.float64), t_dirs: wp.array(dtype=vec3d),
                    t_h: wp.array(dtype=wp.float64), t_curv: wp.array(dtype=mat33d), t_delta: wp.array(dtype=wp.float64),
-                   nd: int, t_round: wp.array(dtype=wp.float64), cos_cone: wp.float64):
+                   nd: int, t_round: wp.array(dtype=wp.float64), cos_cone: wp.float64, hol: Hollow):
         a = int(1)
         if in_a[0] != 0:
             a = 0
@@ -160,7 +161,8 @@ def build_rigid_pair(Ft):
         ln = wp.length(n)
         if W > wp.float64(0.0) and ln > wp.float64(0.0):
             # round 91: the normal from the shapes; with a gap known, only the approach that closes it this substep
-            n = round_normal(t_dirs, t_h, t_round, nd, cos_cone, a, b, rot[a], rot[b], centre[a], centre[b], n / ln)
+            n = round_normal(t_dirs, t_h, t_round, nd, cos_cone, a, b, rot[a], rot[b], centre[a], centre[b], n / ln,
+                             hol)
             g = pair_gap(t_dirs, t_h, t_round, nd, cos_cone, a, b, rot[a], rot[b], centre[a], centre[b], n)
             x_c = vec3d(acc[1], acc[2], acc[3]) / W
             MA = mass[a]

@@ -11,7 +11,7 @@ import warp as wp
 
 from .precision import MODULE_OPTIONS
 from .rigid_pairs import build_pair_update, mat33d, pair_normal, vec3d
-from .rigid_support import body_row
+from .rigid_support import Hollow, body_row
 
 
 @functools.cache
@@ -42,14 +42,14 @@ def build_rigid_pairs_gpu(Ft):
     def prep(rot: wp.array(dtype=mat33d), nb: int, acc: wp.array(dtype=wp.float64), lam: wp.array(dtype=wp.float64),
              gravity: vec3d, slots: wp.array(dtype=wp.int32), count: wp.array(dtype=wp.int32),
              t_dirs: wp.array(dtype=vec3d), nd: int, rows: wp.array(dtype=wp.int32), key: wp.array(dtype=wp.float64),
-             t_h: wp.array(dtype=wp.float64), t_round: wp.array(dtype=wp.float64), cos_cone: wp.float64,
+             t_h: wp.array(dtype=wp.float64), t_round: wp.array(dtype=wp.float64), cos_cone: wp.float64, hol: Hollow,
              centre: wp.array(dtype=vec3d), vel: wp.array(dtype=vec3d), dt: wp.float64,
              allow: wp.array(dtype=wp.float64)):
         q = wp.tid()
         if q >= count[0]:
             return
         s = slots[q]
-        nn = pair_normal(acc, s, nb, t_dirs, t_h, t_round, nd, cos_cone, rot, centre, vel, dt, allow)   # round 91
+        nn = pair_normal(acc, s, nb, t_dirs, t_h, t_round, nd, cos_cone, hol, rot, centre, vel, dt, allow)   # round 91
         rows[2 * s] = body_row(t_dirs, nd, s / nb, rot[s / nb], nn)
         rows[2 * s + 1] = body_row(t_dirs, nd, s - (s / nb) * nb, rot[s - (s / nb) * nb], -nn)
         for c in range(4):
@@ -162,12 +162,12 @@ def islands_launches(eng, Ft) -> list:
     prep, bodies, rank, islands, sweep, advance, clear = build_rigid_pairs_gpu(Ft)
     d, nb = eng.device, len(eng.setup.materials)
     ns = eng.pair_slots.shape[0]
-    t_dirs, t_h, t_curv, t_delta, nd, t_round, cos_cone = eng.rb_tables
+    t_dirs, t_h, t_curv, t_delta, nd, t_round, cos_cone, hol = eng.rb_tables
     g = vec3d(*[float(x) for x in eng.setup.gravity])
     return [
         wp.launch(prep, dim=ns, device=d, record_cmd=True, inputs=[
             eng.rb_R, nb, eng.pair_acc, eng.pair_lam, g, eng.pair_slots, eng.pair_n, t_dirs, nd, eng.pair_rows,
-            eng.pair_key, t_h, t_round, cos_cone, eng.rb_c, eng.rb_V, float(eng.dt), eng.pair_allow]),
+            eng.pair_key, t_h, t_round, cos_cone, hol, eng.rb_c, eng.rb_V, float(eng.dt), eng.pair_allow]),
         wp.launch(bodies, dim=nb, device=d, record_cmd=True, inputs=[
             eng.rb_V, eng.pair_V0, eng.pair_root, eng.pair_isl_of, eng.pair_isl_count, eng.pair_isl_fill]),
         wp.launch(rank, dim=ns, device=d, record_cmd=True, inputs=[

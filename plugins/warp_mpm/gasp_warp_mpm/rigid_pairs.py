@@ -12,7 +12,8 @@ import numpy as np
 import warp as wp
 
 from .precision import MODULE_OPTIONS, build_types
-from .rigid_support import allowed_approach, body_row, pair_gap, roll_flat_at, roll_point_at, round_normal, slip_at, tip
+from .rigid_support import (Hollow, allowed_approach, body_row, pair_gap, roll_flat_at, roll_point_at, round_normal,
+                            slip_at, tip)
 
 vec3d = wp.types.vector(3, wp.float64)
 mat33d = wp.types.matrix((3, 3), wp.float64)
@@ -145,8 +146,8 @@ def build_pair_update(Ft):
 @wp.func
 def pair_normal(acc: wp.array(dtype=wp.float64), s: int, nb: int, t_dirs: wp.array(dtype=vec3d),
                 t_h: wp.array(dtype=wp.float64), t_round: wp.array(dtype=wp.float64), nd: int, cos_cone: wp.float64,
-                rot: wp.array(dtype=mat33d), centre: wp.array(dtype=vec3d), vel: wp.array(dtype=vec3d), dt: wp.float64,
-                allow: wp.array(dtype=wp.float64)):
+                hol: Hollow, rot: wp.array(dtype=mat33d), centre: wp.array(dtype=vec3d), vel: wp.array(dtype=vec3d),
+                dt: wp.float64, allow: wp.array(dtype=wp.float64)):
     # slot s's unit normal from its nodes' sum, round 91's from the shapes (rigid_support.round_normal), written back
     # to the sum for pair_update (its table rows are then read from it), and the approach the slot may keep this
     # substep (allowed_approach: 0 where no gap is known)
@@ -154,7 +155,7 @@ def pair_normal(acc: wp.array(dtype=wp.float64), s: int, nb: int, t_dirs: wp.arr
     b = s - a * nb
     nn = vec3d(acc[7 * s + 4], acc[7 * s + 5], acc[7 * s + 6])
     nn = nn / wp.max(wp.length(nn), wp.float64(1.0e-300))
-    nn = round_normal(t_dirs, t_h, t_round, nd, cos_cone, a, b, rot[a], rot[b], centre[a], centre[b], nn)
+    nn = round_normal(t_dirs, t_h, t_round, nd, cos_cone, a, b, rot[a], rot[b], centre[a], centre[b], nn, hol)
     for ax in range(3):
         acc[7 * s + 4 + ax] = nn[ax]
     gap = pair_gap(t_dirs, t_h, t_round, nd, cos_cone, a, b, rot[a], rot[b], centre[a], centre[b], nn)
@@ -186,11 +187,12 @@ def build_rigid_pairs(Ft):
                     count: wp.array(dtype=wp.int32), seen: wp.array(dtype=wp.int32), t_dirs: wp.array(dtype=vec3d),
                     t_h: wp.array(dtype=wp.float64), t_curv: wp.array(dtype=mat33d),
                     t_delta: wp.array(dtype=wp.float64), nd: int, t_round: wp.array(dtype=wp.float64),
-                    cos_cone: wp.float64, rows: wp.array(dtype=wp.int32), allow: wp.array(dtype=wp.float64)):
+                    cos_cone: wp.float64, hol: Hollow, rows: wp.array(dtype=wp.int32),
+                    allow: wp.array(dtype=wp.float64)):
         n_on = count[0]
         for q in range(n_on):   # the touching pairs, insertion-sorted by (-g . x_c, slot): bottom up, ties by slot
             s = slots[q]
-            nn = pair_normal(acc, s, nb, t_dirs, t_h, t_round, nd, cos_cone, rot, centre, vel, dt, allow)
+            nn = pair_normal(acc, s, nb, t_dirs, t_h, t_round, nd, cos_cone, hol, rot, centre, vel, dt, allow)
             rows[2 * s] = body_row(t_dirs, nd, s / nb, rot[s / nb], nn)
             rows[2 * s + 1] = body_row(t_dirs, nd, s - (s / nb) * nb, rot[s - (s / nb) * nb], -nn)
             for c in range(4):
@@ -273,7 +275,7 @@ def pairs_launches(eng, Ft) -> list:
     from gasp_core.mpm.rigid import affine_dx   # the inertia's M dx^2 / 2: 0 since round 67
     from gasp_core.mpm.rigid_pairs import ISLANDS, SWEEPS, support_data
     from .rigid_support import support_arrays
-    eng.rb_tables = support_arrays(support_data(eng.setup), eng.device, len(eng.setup.materials))
+    eng.rb_tables = support_arrays(support_data(eng.setup), eng.device, len(eng.setup.materials), eng.setup)
     if ISLANDS and eng.schedule == "gpu":
         from .rigid_islands import islands_launches
         return islands_launches(eng, Ft)

@@ -10,26 +10,45 @@ import numpy as np
 import warp as wp
 
 from gasp_core.mpm.rigid_friction import FLAT_FROM, FLAT_TO
-from gasp_core.mpm.rigid_support import ROUND_DEEP
+from gasp_core.mpm.rigid_support import HOLLOW_POWER_STEPS, HOLLOW_WINDOW, ROUND_DEEP
 
 vec3d = wp.types.vector(3, wp.float64)
 mat33d = wp.types.matrix((3, 3), wp.float64)
 FLAT_0 = wp.constant(wp.float64(FLAT_FROM))
 FLAT_W = wp.constant(wp.float64(FLAT_TO - FLAT_FROM))
 DEEP = wp.constant(wp.float64(ROUND_DEEP))
+WINDOW = wp.constant(wp.float64(HOLLOW_WINDOW))
+POWER = wp.constant(HOLLOW_POWER_STEPS)
 
 
-def support_arrays(data, device, nb: int) -> tuple:
+@wp.struct
+class Hollow:
+    """Round 92 (``gasp_core.mpm.hollow.hollow_data``): the outer points of the bodies that are not round, in their
+    rest frames (``X``; body ``b``'s rows ``start[b]`` to ``start[b + 1]``) and each body's point spacing (m)."""
+    X: wp.array(dtype=vec3d)
+    start: wp.array(dtype=wp.int32)
+    spacing: wp.array(dtype=wp.float64)
+
+
+def support_arrays(data, device, nb: int, setup=None) -> tuple:
     """``gasp_core.mpm.rigid_pairs.support_data``'s tables as Warp arrays (vec3d, float64, mat33d, float64 per body),
-    ``nd``, the round bodies (float64 per body, round 90) and the normal's cone (its cosine, float; round 91);
-    ``data`` None: no table for any of the ``nb`` bodies (every band 0: every contact a face's)."""
+    ``nd``, the round bodies (float64 per body, round 90), the normal's cone (its cosine, float; round 91) and round
+    92's :class:`Hollow` (of ``setup``; empty without it); ``data`` None: no table for any of the ``nb`` bodies
+    (every band 0: every contact a face's)."""
+    from gasp_core.mpm.hollow import hollow_data
     if data is None:
         nb = max(int(nb), 1)
         data = (np.zeros((nb, 3)), np.ones(nb), np.zeros((nb, 3, 3)), np.zeros(nb), 0, np.zeros(nb), 2.0)
     dirs, h, curv, delta, nd, rnd, cos_cone = data
+    X, start, spacing = (np.zeros((1, 3)), np.zeros(len(rnd) + 1, np.int32), np.zeros(len(rnd))) if setup is None \
+        else hollow_data(setup, rnd)
+    hol = Hollow()
+    hol.X = wp.array(X, dtype=vec3d, device=device)
+    hol.start = wp.array(start, dtype=wp.int32, device=device)
+    hol.spacing = wp.array(spacing, dtype=wp.float64, device=device)
     return (wp.array(dirs, dtype=vec3d, device=device), wp.array(h, dtype=wp.float64, device=device),
             wp.array(curv, dtype=mat33d, device=device), wp.array(delta, dtype=wp.float64, device=device), int(nd),
-            wp.array(rnd, dtype=wp.float64, device=device), float(cos_cone))
+            wp.array(rnd, dtype=wp.float64, device=device), float(cos_cone), hol)
 
 
 @wp.func
@@ -104,12 +123,48 @@ def roll_point(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), rnd: 
 
 
 @wp.func
+def hollow_normal(hol: Hollow, f: int, Rf: mat33d, cf: vec3d, cr: vec3d, fn: vec3d):
+    # round 92 (gasp_core.mpm.hollow.hollow_normal): the normal out of body f towards a sphere's centre cr, the least
+    # spread of f's outer points within d_min + WINDOW s of cr, weighted (1 - (d - d_min) / (WINDOW s))^2 (power steps
+    # of tr(C) I - C from the nodes' fn, turned towards cr); fn where f has none
+    q = wp.transpose(Rf) * (cr - cf)
+    reach = WINDOW * hol.spacing[f]
+    d_min = wp.float64(1.0e30)
+    for i in range(hol.start[f], hol.start[f + 1]):
+        d_min = wp.min(d_min, wp.length(hol.X[i] - q))
+    W = wp.float64(0.0)
+    y = vec3d(wp.float64(0.0))
+    S = mat33d(wp.float64(0.0))
+    for i in range(hol.start[f], hol.start[f + 1]):
+        Y = hol.X[i] - q
+        t = wp.float64(1.0) - (wp.length(Y) - d_min) / reach
+        if t > wp.float64(0.0):
+            W = W + t * t
+            y = y + (t * t) * Y
+            S = S + (t * t) * wp.outer(Y, Y)
+    out = fn
+    if W > wp.float64(0.0):
+        y = y / W
+        C = S / W - wp.outer(y, y)
+        M = (C[0, 0] + C[1, 1] + C[2, 2]) * wp.identity(n=3, dtype=wp.float64) - C
+        m = wp.transpose(Rf) * fn
+        for _k in range(POWER):
+            m = wp.normalize(M * m)
+        if wp.dot(m, y) > wp.float64(0.0):
+            m = -m
+        out = Rf * m
+    return out
+
+
+@wp.func
 def round_normal(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), rnd: wp.array(dtype=wp.float64), nd: int,
-                 cos_cone: wp.float64, a: int, b: int, RA: mat33d, RB: mat33d, cA: vec3d, cB: vec3d, n: vec3d):
+                 cos_cone: wp.float64, a: int, b: int, RA: mat33d, RB: mat33d, cA: vec3d, cB: vec3d, n: vec3d,
+                 hol: Hollow):
     # round 91 (gasp_core.mpm.rigid_support.pair_normal): two spheres (rnd 1) take their line of centres; a pair of
     # one round body takes as its normal (from A into B) the other body's table direction within the cone of the
     # nodes' n that leaves the two supports farthest apart (the separating axis, rigid_support.round_normal); n
-    # otherwise, with the switch off (cos_cone > 1), or where no direction lies in the cone
+    # otherwise, with the switch off (cos_cone > 1), or where no direction lies in the cone; round 92: too deep in the
+    # hull for a contact (a hollow), a sphere takes hollow_normal
     out = n
     if cos_cone <= wp.float64(1.0) and rnd[a] == wp.float64(1.0) and rnd[b] == wp.float64(1.0):
         out = wp.normalize(cB - cA)
@@ -140,6 +195,13 @@ def round_normal(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), rnd
                     out = sg * e
         if top < -DEEP * hr:   # deeper in the other body's hull than a contact can be: a concave part, the nodes' n
             out = n
+            if rnd[r] == wp.float64(1.0) and cos_cone <= wp.float64(1.0):
+                cf = cA
+                cr = cB
+                if sg < wp.float64(0.0):
+                    cf = cB
+                    cr = cA
+                out = sg * hollow_normal(hol, f, Rf, cf, cr, fn)
     return out
 
 
