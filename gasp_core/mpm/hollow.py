@@ -1,29 +1,29 @@
-"""Round 92 (issue 67 items 2 and 4; ``docs/rigid.md`` "Round 92: a ball in a hollow"): the normal of a sphere's
-contact with a rigid body where that body is concave (a ball rolling in a bowl cut into a block), from the body's own
-outer points, not from its hull or from the touching nodes.
+"""Round 92 (issue 67 items 2 and 4; ``docs/rigid.md`` "Round 92: a ball in a hollow"): the normal of a round body's
+contact with a rigid body where that body is concave (a ball rolling in a bowl cut into a block, a cylinder in a
+trough), from the body's own outer points, not from its hull or from the touching nodes.
 
 Round 91 took a round body's contact normal with a body that is not round from the two bodies' support tables (the
 separating axis, :func:`gasp_core.mpm.rigid_support.round_normal`). A table is the body's hull: a ball inside a hollow
 reads as deep inside it, and there (:data:`gasp_core.mpm.rigid_support.ROUND_DEEP`) the touching nodes' normal stood.
 Measured (``benchmarks/studies/roll_bowl92.py``): a 5 cm ball in a hollow of radius 25 cm cut into a heavy rigid block
-swung 4.1-6.3 % fast on it, rolling or sliding, the miss growing with the grid; with the hollow's exact radial normal
-put in its place it swung within 0.07 %. The touching nodes' normal of a concave contact leans towards the hollow's
-bottom.
+swung 4.1-6.3 % fast on it, rolling or sliding, the miss growing with the grid (a 5 cm cylinder in a trough as much
+on the finer grid); with the hollow's exact radial normal put in its place it swung within 0.07 %. The touching
+nodes' normal of a concave contact leans towards the hollow's bottom.
 
-**The rule.** For a sphere, the normal at its contact passes through its centre, whatever the other body's shape. So
-each rigid body that is not round, in a scene with a rigid sphere and another rigid body, keeps its outer points in
+**The rule.** For a sphere, the normal at its contact passes through its centre, whatever the other body's shape; for
+a solid cylinder's side, through its axis. So each rigid body that is not round, in a scene with a rigid sphere or
+solid cylinder (``round_ground.ground_shapes``) and another rigid body, keeps its outer points in
 its rest frame (:func:`outer_points`: those with an empty neighbour along one of the six axes, at most
 :data:`MAX_POINTS`). Where the separating axis is refused as too deep (``ROUND_DEEP``), the sphere (centre ``c``)
-takes the normal of the plane fitted to the body's outer points nearest its centre: with ``d_min`` the least distance
-from ``c`` to them, the points within ``d_min + HOLLOW_WINDOW s`` (``s`` the body's point spacing) weigh ``(1 - (d -
+takes the normal of the plane fitted to the body's outer points nearest its centre (a cylinder's: nearest its axis's
+segment, the distances taken to it): with ``d_min`` the least distance from ``c`` to them, the points within ``d_min + HOLLOW_WINDOW s`` (``s`` the body's point spacing) weigh ``(1 - (d -
 d_min) / (HOLLOW_WINDOW s))^2``, and the normal is the direction of least spread of those weighted points (the
 smallest eigenvector of their covariance, by ``HOLLOW_POWER_STEPS`` power steps of ``tr(C) I - C`` from the nodes'
 normal), turned towards ``c``. A sampled surface's nearest points lie about the foot of the normal from ``c`` on both
 sides, so that direction is the normal, and the points' scatter along it (a scan's) moves the fit little. Measured on
 the 25 cm hollow: within 0.04 degrees rms of the radial on a Fibonacci sampling; on a scan-like one (jittered a
 quarter spacing along the normal) 0.25-0.46 degrees rms, where the mean of the nearest points' directions was 1.2-1.5
-degrees. Cylinders keep the nodes' normal (their nearest point is not along one normal from the centre). The gap
-stays the hull's (deep: no approach allowed, as before).
+degrees. The gap stays the hull's (deep: no approach allowed, as before).
 
 :func:`hollow_normal` (in :mod:`gasp_core.mpm.rigid_support`, re-exported here) is the NumPy reference both engines
 follow; docs/rigid.md "Round 92" names their functions.
@@ -58,19 +58,22 @@ def outer_points(X0: np.ndarray) -> tuple[np.ndarray, float]:
     return keep[::max(1, -(-len(keep) // MAX_POINTS))], s
 
 
-def hollow_data(setup, rnd) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(X, start, s)``: the outer points the engines read (module notes), all bodies' in their rest frames (``X``
-    (k, 3) float64 m; body ``b``'s rows ``start[b]`` to ``start[b + 1]``, ``start`` (n_bodies + 1,) int32) and each
-    body's point spacing (``s`` (n_bodies,) float64 m). A body has them when it is rigid and not round (``rnd`` 0,
-    :func:`gasp_core.mpm.rigid_pairs.support_data`'s round column) and a rigid sphere (``rnd`` 1) shares the scene;
-    none otherwise, and none at all when :data:`HOLLOW` is 0."""
+def hollow_data(setup, rnd) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(X, start, s, axis, half)``: the outer points the engines read (module notes), all bodies' in their rest
+    frames (``X`` (k, 3) float64 m; body ``b``'s rows ``start[b]`` to ``start[b + 1]``, ``start`` (n_bodies + 1,)
+    int32), each body's point spacing (``s`` (n_bodies,) float64 m) and each round body's axis in its rest frame and
+    half-length (``axis`` (n_bodies, 3), ``half`` (n_bodies,) m: a cylinder's, ``round_ground.ground_shapes``; zeros
+    for a sphere and the others). A body has outer points when it is rigid and not round (``rnd`` 0,
+    :func:`gasp_core.mpm.rigid_pairs.support_data`'s round column) and a rigid round body (``rnd`` 1 or 2) shares the
+    scene; none otherwise, and none at all when :data:`HOLLOW` is 0."""
+    from gasp_core.mpm.round_ground import ground_shapes
     from gasp_core.mpm.rigid import body_frames, rigid_mask
     rnd = np.asarray(rnd, np.float64)
     rigid = np.asarray(rigid_mask(setup.materials), bool)
     n, nb = len(setup.x), len(setup.materials)
     body = np.broadcast_to(np.asarray(setup.body_id), (n,))
     mass = np.broadcast_to(np.asarray(setup.p_mass, np.float64), (n,))
-    want = bool(HOLLOW) and bool(np.any(rnd == 1.0)) and rigid.any()
+    want = bool(HOLLOW) and bool(np.any(rnd > 0.0)) and rigid.any()
     X0 = body_frames(setup.x, mass, body, rigid)[1] if want else None
     parts, start, spacing = [], [0], np.zeros(nb)
     for b in range(nb):
@@ -81,4 +84,7 @@ def hollow_data(setup, rnd) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         parts.append(pts)
         start.append(start[-1] + len(pts))
     X = np.concatenate(parts) if start[-1] else np.zeros((1, 3))
-    return X, np.asarray(start, np.int32), spacing
+    shapes = ground_shapes(setup) if want else np.zeros((nb, 5))
+    cyl = (rnd == 2.0)[:, None]
+    axis, half = np.where(cyl, shapes[:, 2:5], 0.0), np.where(cyl[:, 0], shapes[:, 1], 0.0)
+    return X, np.asarray(start, np.int32), spacing, axis, half

@@ -179,7 +179,7 @@ def round_normal(table_f, R_f, c_f, table_r, R_r, c_r, n, cos_cone: float, outer
     (where ``f``'s support is its table's, exact: a box's face normals are rows), the round body's support read at its
     nearest row (a sphere's is ``R`` in every row). A table is the body's hull: where the best axis still puts the round
     body more than :data:`ROUND_DEEP` of its support inside it, the contact is in a concave part (a ball in a bowl)
-    and the nodes' ``n`` stands, or, for a sphere, round 92's normal from ``f``'s outer points nearest its centre
+    and the nodes' ``n`` stands, or, for a sphere or a cylinder, round 92's normal from ``f``'s outer points nearest its centre
     (``outer``, :func:`hollow_normal`). The nodes' normal (field B's mass gradient) leaned 1-2
     degrees ahead of a rolling 10 cm cylinder and its contact centre lagged 7 mm behind: the approach removed along
     the leaning normal let the body sink 1.7 mm into a slab in 0.3 s and roll 3.4 % fast.
@@ -198,8 +198,9 @@ def round_normal(table_f, R_f, c_f, table_r, R_r, c_r, n, cos_cone: float, outer
     cos_cone : float
         The cosine of the search cone's half-angle (:data:`gasp_core.mpm.rigid_pairs.NORMAL_CONE`); above 1: ``n``.
     outer : tuple, optional
-        Round 92, for a sphere: ``(X_f, s_f)``, ``f``'s outer points ((k, 3) m, rest frame) and spacing (m),
-        :func:`gasp_core.mpm.hollow.hollow_data`'s; None: the nodes' ``n`` in a concave part.
+        Round 92: ``(X_f, s_f)``, ``f``'s outer points ((k, 3) m, rest frame) and spacing (m),
+        :func:`gasp_core.mpm.hollow.hollow_data`'s, and for a cylinder its world axis and half-length (m) after them
+        (:func:`hollow_normal`); None: the nodes' ``n`` in a concave part.
 
     Returns
     -------
@@ -218,7 +219,7 @@ def round_normal(table_f, R_f, c_f, table_r, R_r, c_r, n, cos_cone: float, outer
     if gaps[k] < -ROUND_DEEP * h_r[k]:   # deeper in the hull than a contact can be: a concave part of it
         if outer is None:
             return n
-        return hollow_normal(outer[0], outer[1], R_f, c_f, c_r, n)
+        return hollow_normal(outer[0], outer[1], R_f, c_f, c_r, n, *outer[2:])
     return E[inside[k]].copy()
 
 
@@ -245,8 +246,9 @@ def pair_normal(table_a, R_a, c_a, kind_a: float, table_b, R_b, c_b, kind_b: flo
     cos_cone : float
         :func:`round_normal`'s cone.
     outer_a, outer_b : tuple, optional
-        Round 92: each body's ``(outer points, spacing)`` (:func:`gasp_core.mpm.hollow.hollow_data`), read for the
-        body that is not round when the other is a sphere in a concave part of it.
+        Round 92: each body's ``(outer points, spacing)`` (:func:`gasp_core.mpm.hollow.hollow_data`; with the
+        other's axis and half-length after them where the other is a cylinder), read for the body that is not round
+        when the other, round, lies in a concave part of it.
 
     Returns
     -------
@@ -260,8 +262,8 @@ def pair_normal(table_a, R_a, c_a, kind_a: float, table_b, R_b, c_b, kind_b: flo
         return d / np.linalg.norm(d)
     if (kind_a > 0.0) != (kind_b > 0.0):
         if kind_b > 0.0:
-            return round_normal(table_a, R_a, c_a, table_b, R_b, c_b, n, cos_cone, outer_a if kind_b == 1.0 else None)
-        return -round_normal(table_b, R_b, c_b, table_a, R_a, c_a, -n, cos_cone, outer_b if kind_a == 1.0 else None)
+            return round_normal(table_a, R_a, c_a, table_b, R_b, c_b, n, cos_cone, outer_a)
+        return -round_normal(table_b, R_b, c_b, table_a, R_a, c_a, -n, cos_cone, outer_b)
     return n
 
 
@@ -309,10 +311,11 @@ def pair_flatness(table_a, R_a, table_b, R_b, n, t) -> float:
     return min(body_flatness(table_a, R_a, n, t), body_flatness(table_b, R_b, -n, t))
 
 
-def hollow_normal(X_f, s_f: float, R_f, c_f, c_r, n) -> np.ndarray:
-    """Round 92: the unit normal out of body ``f`` towards a sphere's centre ``c_r`` (m), the plane fitted to ``f``'s
-    outer points nearest it (:mod:`gasp_core.mpm.hollow`'s notes: within ``d_min + HOLLOW_WINDOW s_f``, weighted,
-    the least spread by power steps from ``n``, turned towards ``c_r``).
+def hollow_normal(X_f, s_f: float, R_f, c_f, c_r, n, axis=(0.0, 0.0, 0.0), half: float = 0.0) -> np.ndarray:
+    """Round 92: the unit normal out of body ``f`` towards a sphere's centre ``c_r`` (m), or a cylinder's axis, the
+    plane fitted to ``f``'s outer points nearest it (:mod:`gasp_core.mpm.hollow`'s notes: within ``d_min +
+    HOLLOW_WINDOW s_f``, weighted, the least spread by power steps from ``n``, turned towards ``c_r``). A cylinder's
+    distances are to its axis's segment (``c_r +- t axis``, ``|t| <= half``), where its side's normal meets it.
 
     Parameters
     ----------
@@ -326,6 +329,10 @@ def hollow_normal(X_f, s_f: float, R_f, c_f, c_r, n) -> np.ndarray:
         Its mass centre and the sphere's centre, m.
     n : array_like, shape (3,)
         The touching nodes' unit normal, out of ``f``: the power steps' start.
+    axis : array_like, shape (3,), optional
+        A cylinder's unit axis in the world (zeros: a sphere).
+    half : float, optional
+        Its half-length, m.
 
     Returns
     -------
@@ -338,7 +345,8 @@ def hollow_normal(X_f, s_f: float, R_f, c_f, c_r, n) -> np.ndarray:
     R_f = np.asarray(R_f, np.float64)
     q = R_f.T @ (np.asarray(c_r, np.float64) - np.asarray(c_f, np.float64))
     Y = X_f - q
-    d = np.linalg.norm(Y, axis=1)
+    e = R_f.T @ np.asarray(axis, np.float64)   # a cylinder's axis in f's frame (zeros: a sphere)
+    d = np.linalg.norm(Y - np.clip(Y @ e, -half, half)[:, None] * e[None, :], axis=1)
     w = np.clip(1.0 - (d - d.min()) / (HOLLOW_WINDOW * s_f), 0.0, None) ** 2
     y = (w[:, None] * Y).sum(0) / w.sum()
     C = np.einsum("n,ni,nj->ij", w, Y, Y) / w.sum() - np.outer(y, y)

@@ -55,9 +55,10 @@ class RigidFriction:
             f.from_numpy(np.asarray(a, np.float64))
 
     def set_hollow(self, hollow) -> None:
-        """Round 92: the outer points of the bodies a sphere meets in a hollow (``X`` rest frames, ``start`` per
-        body, ``spacing`` per body: ``gasp_core.mpm.hollow.hollow_data``) as ``hol_X``, ``hol_start``, ``hol_s``;
-        None: one unread point and no body's rows, allocated once."""
+        """Round 92: the outer points of the bodies a round body meets in a hollow (``X`` rest frames, ``start`` per
+        body, ``spacing`` per body, a round body's rest ``axis`` and ``half``-length: ``gasp_core.mpm.hollow.
+        hollow_data``) as ``hol_X``, ``hol_start``, ``hol_s``, ``hol_axis``, ``hol_half``; None: one unread point and
+        no body's rows, allocated once."""
         import numpy as np
         if hollow is None:
             if getattr(self, "hol_X", None) is None:
@@ -65,33 +66,46 @@ class RigidFriction:
                 self.hol_X = ti.Vector.field(3, ti.f64, shape=1)
                 self.hol_start = ti.field(ti.i32, shape=nb + 1)
                 self.hol_s = ti.field(ti.f64, shape=nb)
+                self.hol_axis = ti.Vector.field(3, ti.f64, shape=nb)
+                self.hol_half = ti.field(ti.f64, shape=nb)
             return
-        X, start, spacing = hollow
+        X, start, spacing, axis, half = hollow
         self.hol_X = ti.Vector.field(3, ti.f64, shape=len(X))
         self.hol_start = ti.field(ti.i32, shape=len(start))
         self.hol_s = ti.field(ti.f64, shape=len(spacing))
+        self.hol_axis = ti.Vector.field(3, ti.f64, shape=len(half))
+        self.hol_half = ti.field(ti.f64, shape=len(half))
+        self.hol_axis.from_numpy(np.asarray(axis, np.float64))
+        self.hol_half.from_numpy(np.asarray(half, np.float64))
         self.hol_X.from_numpy(np.asarray(X, np.float64))
         self.hol_start.from_numpy(np.asarray(start, np.int32))
         self.hol_s.from_numpy(np.asarray(spacing, np.float64))
 
     @ti.func
-    def hollow_normal(self, f, cr, fn):
-        """Round 92 (``gasp_core.mpm.hollow.hollow_normal``): the normal out of body ``f`` towards a sphere's centre
-        ``cr``, the least spread of ``f``'s outer points within ``d_min + WINDOW s`` of it, weighted ``(1 - (d -
+    def axis_gap(self, Y, e, h):
+        """The distance of ``Y`` (from a round body's centre) to its axis's segment ``+-h e`` (a sphere: ``e`` 0)."""
+        return (Y - ti.min(ti.max(Y.dot(e), -h), h) * e).norm()
+
+    @ti.func
+    def hollow_normal(self, f, r, fn):
+        """Round 92 (``gasp_core.mpm.rigid_support.hollow_normal``): the normal out of body ``f`` towards round body
+        ``r``'s centre (a cylinder's axis), the least spread of ``f``'s outer points within ``d_min + WINDOW s`` of it, weighted ``(1 - (d -
         d_min) / (WINDOW s))^2`` (power steps of ``tr(C) I - C`` from the nodes' ``fn``, turned towards ``cr``);
         ``fn`` where ``f`` has none."""
         Rf = self.rb_R[f]
-        q = Rf.transpose() @ (cr - self.rb_c[f])
+        q = Rf.transpose() @ (self.rb_c[r] - self.rb_c[f])
+        e = Rf.transpose() @ (self.rb_R[r] @ self.hol_axis[r])
+        h = self.hol_half[r]
         reach = HOLLOW_WINDOW * self.hol_s[f]
         d_min = ti.cast(1.0e30, ti.f64)
         for i in range(self.hol_start[f], self.hol_start[f + 1]):
-            d_min = ti.min(d_min, (self.hol_X[i] - q).norm())
+            d_min = ti.min(d_min, self.axis_gap(self.hol_X[i] - q, e, h))
         W = ti.cast(0.0, ti.f64)
         y = ti.Vector([0.0, 0.0, 0.0], ti.f64)
         S = ti.Matrix.zero(ti.f64, 3, 3)
         for i in range(self.hol_start[f], self.hol_start[f + 1]):
             Y = self.hol_X[i] - q
-            t = 1.0 - (Y.norm() - d_min) / reach
+            t = 1.0 - (self.axis_gap(Y, e, h) - d_min) / reach
             if t > 0.0:
                 W += t * t
                 y += (t * t) * Y
@@ -153,8 +167,8 @@ class RigidFriction:
                         out = sg * e
             if top < -ROUND_DEEP * hr:   # deeper in the other body's hull than a contact can be: concave, the nodes'
                 out = n
-                if self.sup_round[r] == 1.0:   # round 92: a sphere in a hollow, from f's outer points
-                    out = sg * self.hollow_normal(f, self.rb_c[r], fn)
+                if self.sup_cone <= 1.0 and top > -1.0e29:   # round 92: in a hollow, from f's outer points
+                    out = sg * self.hollow_normal(f, r, fn)
         return out
 
     @ti.func

@@ -24,10 +24,13 @@ POWER = wp.constant(HOLLOW_POWER_STEPS)
 @wp.struct
 class Hollow:
     """Round 92 (``gasp_core.mpm.hollow.hollow_data``): the outer points of the bodies that are not round, in their
-    rest frames (``X``; body ``b``'s rows ``start[b]`` to ``start[b + 1]``) and each body's point spacing (m)."""
+    rest frames (``X``; body ``b``'s rows ``start[b]`` to ``start[b + 1]``), each body's point spacing (m), and a
+    round body's rest axis and half-length (m; zeros: a sphere)."""
     X: wp.array(dtype=vec3d)
     start: wp.array(dtype=wp.int32)
     spacing: wp.array(dtype=wp.float64)
+    axis: wp.array(dtype=vec3d)
+    half: wp.array(dtype=wp.float64)
 
 
 def support_arrays(data, device, nb: int, setup=None) -> tuple:
@@ -40,12 +43,15 @@ def support_arrays(data, device, nb: int, setup=None) -> tuple:
         nb = max(int(nb), 1)
         data = (np.zeros((nb, 3)), np.ones(nb), np.zeros((nb, 3, 3)), np.zeros(nb), 0, np.zeros(nb), 2.0)
     dirs, h, curv, delta, nd, rnd, cos_cone = data
-    X, start, spacing = (np.zeros((1, 3)), np.zeros(len(rnd) + 1, np.int32), np.zeros(len(rnd))) if setup is None \
-        else hollow_data(setup, rnd)
+    nb = len(rnd)
+    X, start, spacing, axis, half = (np.zeros((1, 3)), np.zeros(nb + 1, np.int32), np.zeros(nb), np.zeros((nb, 3)),
+                                     np.zeros(nb)) if setup is None else hollow_data(setup, rnd)
     hol = Hollow()
     hol.X = wp.array(X, dtype=vec3d, device=device)
     hol.start = wp.array(start, dtype=wp.int32, device=device)
     hol.spacing = wp.array(spacing, dtype=wp.float64, device=device)
+    hol.axis = wp.array(axis, dtype=vec3d, device=device)
+    hol.half = wp.array(half, dtype=wp.float64, device=device)
     return (wp.array(dirs, dtype=vec3d, device=device), wp.array(h, dtype=wp.float64, device=device),
             wp.array(curv, dtype=mat33d, device=device), wp.array(delta, dtype=wp.float64, device=device), int(nd),
             wp.array(rnd, dtype=wp.float64, device=device), float(cos_cone), hol)
@@ -123,21 +129,29 @@ def roll_point(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), rnd: 
 
 
 @wp.func
-def hollow_normal(hol: Hollow, f: int, Rf: mat33d, cf: vec3d, cr: vec3d, fn: vec3d):
-    # round 92 (gasp_core.mpm.hollow.hollow_normal): the normal out of body f towards a sphere's centre cr, the least
-    # spread of f's outer points within d_min + WINDOW s of cr, weighted (1 - (d - d_min) / (WINDOW s))^2 (power steps
-    # of tr(C) I - C from the nodes' fn, turned towards cr); fn where f has none
+def axis_gap(Y: vec3d, e: vec3d, h: wp.float64):
+    # the distance of Y (from a round body's centre) to its axis's segment +-h e (a sphere: e 0, |Y|)
+    return wp.length(Y - wp.clamp(wp.dot(Y, e), -h, h) * e)
+
+
+@wp.func
+def hollow_normal(hol: Hollow, f: int, r: int, Rf: mat33d, Rr: mat33d, cf: vec3d, cr: vec3d, fn: vec3d):
+    # round 92 (gasp_core.mpm.rigid_support.hollow_normal): the normal out of body f towards round body r's centre cr
+    # (a cylinder's axis), the least spread of f's outer points within d_min + WINDOW s of it, weighted (1 - (d -
+    # d_min) / (WINDOW s))^2 (power steps of tr(C) I - C from the nodes' fn, turned towards cr); fn where f has none
     q = wp.transpose(Rf) * (cr - cf)
+    e = wp.transpose(Rf) * (Rr * hol.axis[r])
+    h = hol.half[r]
     reach = WINDOW * hol.spacing[f]
     d_min = wp.float64(1.0e30)
     for i in range(hol.start[f], hol.start[f + 1]):
-        d_min = wp.min(d_min, wp.length(hol.X[i] - q))
+        d_min = wp.min(d_min, axis_gap(hol.X[i] - q, e, h))
     W = wp.float64(0.0)
     y = vec3d(wp.float64(0.0))
     S = mat33d(wp.float64(0.0))
     for i in range(hol.start[f], hol.start[f + 1]):
         Y = hol.X[i] - q
-        t = wp.float64(1.0) - (wp.length(Y) - d_min) / reach
+        t = wp.float64(1.0) - (axis_gap(Y, e, h) - d_min) / reach
         if t > wp.float64(0.0):
             W = W + t * t
             y = y + (t * t) * Y
@@ -164,7 +178,7 @@ def round_normal(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), rnd
     # one round body takes as its normal (from A into B) the other body's table direction within the cone of the
     # nodes' n that leaves the two supports farthest apart (the separating axis, rigid_support.round_normal); n
     # otherwise, with the switch off (cos_cone > 1), or where no direction lies in the cone; round 92: too deep in the
-    # hull for a contact (a hollow), a sphere takes hollow_normal
+    # hull for a contact (a hollow), a round body takes hollow_normal
     out = n
     if cos_cone <= wp.float64(1.0) and rnd[a] == wp.float64(1.0) and rnd[b] == wp.float64(1.0):
         out = wp.normalize(cB - cA)
@@ -195,13 +209,13 @@ def round_normal(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), rnd
                     out = sg * e
         if top < -DEEP * hr:   # deeper in the other body's hull than a contact can be: a concave part, the nodes' n
             out = n
-            if rnd[r] == wp.float64(1.0) and cos_cone <= wp.float64(1.0):
+            if cos_cone <= wp.float64(1.0) and top > wp.float64(-1.0e29):
                 cf = cA
                 cr = cB
                 if sg < wp.float64(0.0):
                     cf = cB
                     cr = cA
-                out = sg * hollow_normal(hol, f, Rf, cf, cr, fn)
+                out = sg * hollow_normal(hol, f, r, Rf, Rr, cf, cr, fn)
     return out
 
 
