@@ -82,21 +82,27 @@ def test_the_outer_points_of_a_lattice_block_are_its_faces_layer():
 
 def _hollow_case(sampling: str):
     s, _ = RB.setup(32, "fibonacci", 0.5, sampling)
-    X, start, spacing, _, _ = hollow.hollow_data(s, rigid_pairs.support_data(s)[5])
+    data = hollow.hollow_data(s, rigid_pairs.support_data(s)[5])
     b, m = np.asarray(s.body_id), np.asarray(s.p_mass)
     c_f = (m[b == 1, None] * np.asarray(s.x)[b == 1]).sum(0) / m[b == 1].sum()
-    return X[start[1]:start[2]], spacing[1], c_f, start
+    return hollow.body_points(data, 1), data["spacing"][1], c_f, data
 
 
 def test_the_normal_from_a_hollows_outer_points_is_radial():
-    X_f, s_f, c_f, start = _hollow_case("fibonacci")
-    assert start[1] == 0 and start[2] > 1000   # the ball (round) has none, the block its outer layer
+    X_f, s_f, c_f, data = _hollow_case("fibonacci")
+    assert len(hollow.body_points(data, 0)) == 0 and len(X_f) > 1000   # the ball (round) has none, the block its
+    assert data["radius"][0] == pytest.approx(rc.BALL_R, rel=0.02)     # outer layer; the ball's radius read
+    # the cells hold every outer point once, each within its cell
+    nx, ny, nz, first = data["cdims"][4:8]
+    cells = np.repeat(np.arange(nx * ny * nz), np.diff(data["cstart"][first:first + nx * ny * nz + 1]))
+    ijk = np.floor((X_f - data["corg"][1]) / data["csize"][1]).astype(int).clip(0, [nx - 1, ny - 1, nz - 1])
+    assert np.array_equal((ijk[:, 0] * ny + ijk[:, 1]) * nz + ijk[:, 2], cells)
     worst = 0.0
     for th in np.radians(np.linspace(0.0, 30.0, 31)):
         c = rc.BOWL_C + 0.2 * np.array([np.sin(th), 0.0, -np.cos(th)])
         radial = (rc.BOWL_C - c) / np.linalg.norm(rc.BOWL_C - c)
         lean = radial + np.array([0.05, 0.0, 0.0])
-        n = hollow.hollow_normal(X_f, s_f, np.eye(3), c_f, c, lean / np.linalg.norm(lean))
+        n = hollow.hollow_normal(X_f, s_f, np.eye(3), c_f, c, lean / np.linalg.norm(lean), radius=rc.BALL_R)
         worst = max(worst, float(np.degrees(np.arccos(np.clip(n @ radial, -1.0, 1.0)))))
     assert worst < 0.2
 
@@ -106,7 +112,7 @@ def test_round_normal_takes_the_outer_points_in_a_hollow():
     radial one, without them the nodes' stands."""
     from gasp_core.mpm.rigid_support import round_table, support_table, table_directions
     s, _ = RB.setup(32, "fibonacci", 0.5, "fibonacci")
-    X_f, s_f, c_f, _ = _hollow_case("fibonacci")
+    X_f, s_f, c_f, data = _hollow_case("fibonacci")
     b = np.asarray(s.body_id)
     D = table_directions(np.zeros((1, 3)))
     block = support_table(np.asarray(s.x)[b == 1] - c_f, 0.6 / 32 / 2)[:2]
@@ -117,19 +123,19 @@ def test_round_normal_takes_the_outer_points_in_a_hollow():
     lean = radial + np.array([0.0, 0.0, 0.05])
     lean /= np.linalg.norm(lean)
     cone, I = np.cos(np.radians(rigid_pairs.NORMAL_CONE)), np.eye(3)
-    n = rigid_support.round_normal(block, I, c_f, ball, I, c, lean, cone, outer=(X_f, s_f))
+    n = rigid_support.round_normal(block, I, c_f, ball, I, c, lean, cone, outer=(X_f, s_f, np.zeros(3), 0.0, rc.BALL_R))
     assert np.degrees(np.arccos(np.clip(n @ radial, -1.0, 1.0))) < 0.2
     assert np.allclose(rigid_support.round_normal(block, I, c_f, ball, I, c, lean, cone), lean)
     # pair_normal, either body first (the normal from A into B)
-    o = (X_f, s_f)
+    o = (X_f, s_f, np.zeros(3), 0.0, rc.BALL_R)
     assert np.allclose(rigid_support.pair_normal(block, I, c_f, 0.0, ball, I, c, 1.0, lean, cone, outer_a=o), n)
     assert np.allclose(rigid_support.pair_normal(ball, I, c, 1.0, block, I, c_f, 0.0, -lean, cone, outer_b=o), -n)
 
 
-def test_only_a_scene_with_a_rigid_sphere_gets_outer_points(monkeypatch):
+def test_only_a_scene_with_a_rigid_round_body_gets_outer_points(monkeypatch):
     s, _ = RB.setup(24, "fibonacci", 0.5, "fibonacci")
     rnd = rigid_pairs.support_data(s)[5]
-    assert hollow.hollow_data(s, rnd)[1][-1] > 0
-    assert hollow.hollow_data(s, np.zeros_like(rnd))[1][-1] == 0   # no sphere: none
+    assert hollow.hollow_data(s, rnd)["cstart"][-1] > 0
+    assert hollow.hollow_data(s, np.zeros_like(rnd))["cstart"][-1] == 0   # no round body: none
     monkeypatch.setattr(hollow, "HOLLOW", 0)
-    assert hollow.hollow_data(s, rnd)[1][-1] == 0
+    assert hollow.hollow_data(s, rnd)["cstart"][-1] == 0

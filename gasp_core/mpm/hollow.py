@@ -36,8 +36,13 @@ from gasp_core.mpm.rigid_support import HOLLOW_POWER_STEPS, HOLLOW_WINDOW, hollo
 
 #: 1: the rule above; 0: the touching nodes' normal in a concave part (round 91's, the broken variant).
 HOLLOW = 1
-#: Most outer points of one body (a larger body's are thinned evenly): the work of one contact's normal.
+#: Most outer points of one body (a larger body's are thinned evenly).
 MAX_POINTS = 200_000
+#: The cells of a body's outer points, in its point spacings: a contact's normal reads the cells within its round
+#: body's reach (``rigid_support.HOLLOW_REACH``), a few hundred points, not the body's all.
+CELL = 4.0
+#: Most cells of one body (a larger body's are wider).
+MAX_CELLS = 1_000_000
 
 
 def outer_points(X0: np.ndarray) -> tuple[np.ndarray, float]:
@@ -58,14 +63,34 @@ def outer_points(X0: np.ndarray) -> tuple[np.ndarray, float]:
     return keep[::max(1, -(-len(keep) // MAX_POINTS))], s
 
 
-def hollow_data(setup, rnd) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """``(X, start, s, axis, half)``: the outer points the engines read (module notes), all bodies' in their rest
-    frames (``X`` (k, 3) float64 m; body ``b``'s rows ``start[b]`` to ``start[b + 1]``, ``start`` (n_bodies + 1,)
-    int32), each body's point spacing (``s`` (n_bodies,) float64 m) and each round body's axis in its rest frame and
-    half-length (``axis`` (n_bodies, 3), ``half`` (n_bodies,) m: a cylinder's, ``round_ground.ground_shapes``; zeros
-    for a sphere and the others). A body has outer points when it is rigid and not round (``rnd`` 0,
-    :func:`gasp_core.mpm.rigid_pairs.support_data`'s round column) and a rigid round body (``rnd`` 1 or 2) shares the
-    scene; none otherwise, and none at all when :data:`HOLLOW` is 0."""
+def cell_index(pts: np.ndarray, s: float) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
+    """``(order, counts, c, (origin, dims))`` of one body's outer points ``pts`` ((k, 3) m) on cells of
+    :data:`CELL` point spacings ``s`` (wider where more than :data:`MAX_CELLS`): ``order`` sorts the points by their
+    cell (x-major), ``counts`` (nx * ny * nz,) the points a cell holds."""
+    lo = pts.min(0)
+    span = pts.max(0) - lo
+    c = max(CELL * s, float(np.prod(span + CELL * s) / MAX_CELLS) ** (1.0 / 3.0))
+    dims = np.floor(span / c).astype(int) + 1
+    ijk = np.minimum(np.floor((pts - lo) / c).astype(int), dims - 1)
+    flat = (ijk[:, 0] * dims[1] + ijk[:, 1]) * dims[2] + ijk[:, 2]
+    return np.argsort(flat, kind="stable"), np.bincount(flat, minlength=int(np.prod(dims))), c, (lo, dims)
+
+
+def hollow_data(setup, rnd) -> dict:
+    """The outer points the engines read (module notes) and their cells, all bodies' in their rest frames:
+
+    - ``"X"`` (k, 3) float64 m: the outer points, each body's sorted by cell;
+    - ``"cstart"`` (n_cells + 1,) int32: cell ``g``'s points are ``X[cstart[g]:cstart[g + 1]]``;
+    - ``"corg"`` (n_bodies, 3) m, ``"csize"`` (n_bodies,) m, ``"cdims"`` (4 n_bodies,) int32: each body's cells'
+      origin, size and ``[nx, ny, nz, first cell]`` (a body without outer points: one empty cell);
+    - ``"spacing"`` (n_bodies,) m: each body's point spacing;
+    - ``"radius"``, ``"half"`` (n_bodies,) m and ``"axis"`` (n_bodies, 3): each round body's radius, and a
+      cylinder's half-length and unit axis in its rest frame (``round_ground.ground_shapes``; zeros: a sphere's
+      axis, and the others).
+
+    A body has outer points when it is rigid and not round (``rnd`` 0, :func:`gasp_core.mpm.rigid_pairs.
+    support_data`'s round column) and a rigid round body (``rnd`` 1 or 2) shares the scene; none otherwise, and none
+    at all when :data:`HOLLOW` is 0."""
     from gasp_core.mpm.round_ground import ground_shapes
     from gasp_core.mpm.rigid import body_frames, rigid_mask
     rnd = np.asarray(rnd, np.float64)
@@ -75,16 +100,31 @@ def hollow_data(setup, rnd) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndar
     mass = np.broadcast_to(np.asarray(setup.p_mass, np.float64), (n,))
     want = bool(HOLLOW) and bool(np.any(rnd > 0.0)) and rigid.any()
     X0 = body_frames(setup.x, mass, body, rigid)[1] if want else None
-    parts, start, spacing = [], [0], np.zeros(nb)
+    parts, counts, spacing = [], [], np.zeros(nb)
+    corg, csize, cdims = np.zeros((nb, 3)), np.ones(nb), []
     for b in range(nb):
         sel = (body == b) & (mass > 0.0)
-        pts = np.zeros((0, 3))
+        cdims += [1, 1, 1, len(np.concatenate(counts)) if counts else 0]
         if want and rigid[b] and rnd[b] == 0.0 and sel.sum() >= 8:
             pts, spacing[b] = outer_points(X0[sel])
-        parts.append(pts)
-        start.append(start[-1] + len(pts))
-    X = np.concatenate(parts) if start[-1] else np.zeros((1, 3))
+            order, cnt, csize[b], (corg[b], dims) = cell_index(pts, spacing[b])
+            cdims[-4:-1] = [int(d) for d in dims]
+            parts.append(pts[order])
+            counts.append(cnt)
+        else:
+            counts.append(np.zeros(1, int))
+    counts = np.concatenate(counts)
     shapes = ground_shapes(setup) if want else np.zeros((nb, 5))
-    cyl = (rnd == 2.0)[:, None]
-    axis, half = np.where(cyl, shapes[:, 2:5], 0.0), np.where(cyl[:, 0], shapes[:, 1], 0.0)
-    return X, np.asarray(start, np.int32), spacing, axis, half
+    round_ = (rnd > 0.0)
+    cyl = (rnd == 2.0)
+    return {"X": np.concatenate(parts) if parts else np.zeros((1, 3)),
+            "cstart": np.r_[0, np.cumsum(counts)].astype(np.int32), "corg": corg, "csize": csize,
+            "cdims": np.asarray(cdims, np.int32), "spacing": spacing,
+            "radius": np.where(round_, shapes[:, 0], 0.0), "half": np.where(cyl, shapes[:, 1], 0.0),
+            "axis": np.where(cyl[:, None], shapes[:, 2:5], 0.0)}
+
+
+def body_points(data: dict, b: int) -> np.ndarray:
+    """Body ``b``'s outer points from :func:`hollow_data`'s ``data`` ((k, 3) m, its rest frame)."""
+    nx, ny, nz, first = (int(v) for v in data["cdims"][4 * b:4 * b + 4])
+    return data["X"][data["cstart"][first]:data["cstart"][first + nx * ny * nz]]

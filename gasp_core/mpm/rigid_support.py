@@ -31,6 +31,9 @@ ROUND_DEEP = 0.25
 #: Round 92 (:mod:`gasp_core.mpm.hollow`): the plane fit's reach beyond the nearest outer point, in the body's point
 #: spacings (:func:`hollow_normal`).
 HOLLOW_WINDOW = 2.0
+#: Round 92: the outer points read, within the round body's radius and this many of the other body's point spacings
+#: of its centre or axis (the window's 2 and one for the overlap): the engines' cells within it.
+HOLLOW_REACH = 3.0
 #: Round 92: power steps of the fit's least-spread direction (the eigenvalues' ratio is about 1/2 on a surface patch).
 HOLLOW_POWER_STEPS = 24
 #: The number of Fibonacci directions of a table (the rest-frame axes and the body's principal axes are added).
@@ -311,11 +314,13 @@ def pair_flatness(table_a, R_a, table_b, R_b, n, t) -> float:
     return min(body_flatness(table_a, R_a, n, t), body_flatness(table_b, R_b, -n, t))
 
 
-def hollow_normal(X_f, s_f: float, R_f, c_f, c_r, n, axis=(0.0, 0.0, 0.0), half: float = 0.0) -> np.ndarray:
+def hollow_normal(X_f, s_f: float, R_f, c_f, c_r, n, axis=(0.0, 0.0, 0.0), half: float = 0.0,
+                  radius: float = np.inf) -> np.ndarray:
     """Round 92: the unit normal out of body ``f`` towards a sphere's centre ``c_r`` (m), or a cylinder's axis, the
     plane fitted to ``f``'s outer points nearest it (:mod:`gasp_core.mpm.hollow`'s notes: within ``d_min +
-    HOLLOW_WINDOW s_f``, weighted, the least spread by power steps from ``n``, turned towards ``c_r``). A cylinder's
-    distances are to its axis's segment (``c_r +- t axis``, ``|t| <= half``), where its side's normal meets it.
+    HOLLOW_WINDOW s_f``, weighted, the least spread by power steps from ``n``, turned towards ``c_r``), of the points
+    within ``radius + HOLLOW_REACH s_f``. A cylinder's distances are to its axis's segment (``c_r +- t axis``, ``|t|
+    <= half``), where its side's normal meets it.
 
     Parameters
     ----------
@@ -333,11 +338,13 @@ def hollow_normal(X_f, s_f: float, R_f, c_f, c_r, n, axis=(0.0, 0.0, 0.0), half:
         A cylinder's unit axis in the world (zeros: a sphere).
     half : float, optional
         Its half-length, m.
+    radius : float, optional
+        The round body's radius, m (the reach's; infinite: every point).
 
     Returns
     -------
     ndarray, shape (3,)
-        The unit normal out of ``f``; ``n`` where ``f`` has no outer points.
+        The unit normal out of ``f``; ``n`` where ``f`` has no outer points within the reach.
     """
     X_f = np.asarray(X_f, np.float64)
     if not len(X_f) or not s_f > 0.0:
@@ -347,6 +354,10 @@ def hollow_normal(X_f, s_f: float, R_f, c_f, c_r, n, axis=(0.0, 0.0, 0.0), half:
     Y = X_f - q
     e = R_f.T @ np.asarray(axis, np.float64)   # a cylinder's axis in f's frame (zeros: a sphere)
     d = np.linalg.norm(Y - np.clip(Y @ e, -half, half)[:, None] * e[None, :], axis=1)
+    near = d <= radius + HOLLOW_REACH * s_f
+    if not near.any():
+        return np.asarray(n, np.float64)
+    Y, d = Y[near], d[near]
     w = np.clip(1.0 - (d - d.min()) / (HOLLOW_WINDOW * s_f), 0.0, None) ** 2
     y = (w[:, None] * Y).sum(0) / w.sum()
     C = np.einsum("n,ni,nj->ij", w, Y, Y) / w.sum() - np.outer(y, y)

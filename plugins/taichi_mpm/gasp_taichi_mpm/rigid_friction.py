@@ -5,7 +5,7 @@ Taichi funcs mixed into :class:`gasp_taichi_mpm.rigid.Rigid`; the NumPy referenc
 import taichi as ti
 
 from gasp_core.mpm.rigid_friction import FLAT_FROM, FLAT_TO, TIP_SHARED
-from gasp_core.mpm.rigid_support import HOLLOW_POWER_STEPS, HOLLOW_WINDOW, ROUND_DEEP
+from gasp_core.mpm.rigid_support import ROUND_DEEP
 
 
 @ti.func
@@ -53,75 +53,6 @@ class RigidFriction:
         for f, a in ((self.sup_dirs, dirs), (self.sup_h, h), (self.sup_curv, curv), (self.sup_delta, delta),
                      (self.sup_round, rnd)):
             f.from_numpy(np.asarray(a, np.float64))
-
-    def set_hollow(self, hollow) -> None:
-        """Round 92: the outer points of the bodies a round body meets in a hollow (``X`` rest frames, ``start`` per
-        body, ``spacing`` per body, a round body's rest ``axis`` and ``half``-length: ``gasp_core.mpm.hollow.
-        hollow_data``) as ``hol_X``, ``hol_start``, ``hol_s``, ``hol_axis``, ``hol_half``; None: one unread point and
-        no body's rows, allocated once."""
-        import numpy as np
-        if hollow is None:
-            if getattr(self, "hol_X", None) is None:
-                nb = max(int(self.n_bodies), 1)
-                self.hol_X = ti.Vector.field(3, ti.f64, shape=1)
-                self.hol_start = ti.field(ti.i32, shape=nb + 1)
-                self.hol_s = ti.field(ti.f64, shape=nb)
-                self.hol_axis = ti.Vector.field(3, ti.f64, shape=nb)
-                self.hol_half = ti.field(ti.f64, shape=nb)
-            return
-        X, start, spacing, axis, half = hollow
-        self.hol_X = ti.Vector.field(3, ti.f64, shape=len(X))
-        self.hol_start = ti.field(ti.i32, shape=len(start))
-        self.hol_s = ti.field(ti.f64, shape=len(spacing))
-        self.hol_axis = ti.Vector.field(3, ti.f64, shape=len(half))
-        self.hol_half = ti.field(ti.f64, shape=len(half))
-        self.hol_axis.from_numpy(np.asarray(axis, np.float64))
-        self.hol_half.from_numpy(np.asarray(half, np.float64))
-        self.hol_X.from_numpy(np.asarray(X, np.float64))
-        self.hol_start.from_numpy(np.asarray(start, np.int32))
-        self.hol_s.from_numpy(np.asarray(spacing, np.float64))
-
-    @ti.func
-    def axis_gap(self, Y, e, h):
-        """The distance of ``Y`` (from a round body's centre) to its axis's segment ``+-h e`` (a sphere: ``e`` 0)."""
-        return (Y - ti.min(ti.max(Y.dot(e), -h), h) * e).norm()
-
-    @ti.func
-    def hollow_normal(self, f, r, fn):
-        """Round 92 (``gasp_core.mpm.rigid_support.hollow_normal``): the normal out of body ``f`` towards round body
-        ``r``'s centre (a cylinder's axis), the least spread of ``f``'s outer points within ``d_min + WINDOW s`` of it, weighted ``(1 - (d -
-        d_min) / (WINDOW s))^2`` (power steps of ``tr(C) I - C`` from the nodes' ``fn``, turned towards ``cr``);
-        ``fn`` where ``f`` has none."""
-        Rf = self.rb_R[f]
-        q = Rf.transpose() @ (self.rb_c[r] - self.rb_c[f])
-        e = Rf.transpose() @ (self.rb_R[r] @ self.hol_axis[r])
-        h = self.hol_half[r]
-        reach = HOLLOW_WINDOW * self.hol_s[f]
-        d_min = ti.cast(1.0e30, ti.f64)
-        for i in range(self.hol_start[f], self.hol_start[f + 1]):
-            d_min = ti.min(d_min, self.axis_gap(self.hol_X[i] - q, e, h))
-        W = ti.cast(0.0, ti.f64)
-        y = ti.Vector([0.0, 0.0, 0.0], ti.f64)
-        S = ti.Matrix.zero(ti.f64, 3, 3)
-        for i in range(self.hol_start[f], self.hol_start[f + 1]):
-            Y = self.hol_X[i] - q
-            t = 1.0 - (self.axis_gap(Y, e, h) - d_min) / reach
-            if t > 0.0:
-                W += t * t
-                y += (t * t) * Y
-                S += (t * t) * Y.outer_product(Y)
-        out = fn
-        if W > 0.0:
-            y = y / W
-            C = S / W - y.outer_product(y)
-            M = C.trace() * ti.Matrix.identity(ti.f64, 3) - C
-            m = Rf.transpose() @ fn
-            for _k in range(HOLLOW_POWER_STEPS):
-                m = (M @ m).normalized()
-            if m.dot(y) > 0.0:
-                m = -m
-            out = Rf @ m
-        return out
 
     @ti.func
     def body_row(self, b, R, d):

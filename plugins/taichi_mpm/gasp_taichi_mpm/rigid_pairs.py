@@ -7,9 +7,12 @@ touching pairs solved together by projected Gauss-Seidel once a substep after th
 import numpy as np
 import taichi as ti
 
+from .hollow import Hollow
 
-class RigidPairs:
-    """The pairs' arrays (:meth:`allocate_pairs`, :meth:`set_pairs`), :meth:`node_slot` and :meth:`rigid_pairs`."""
+
+class RigidPairs(Hollow):
+    """The pairs' arrays (:meth:`allocate_pairs`, :meth:`set_pairs`), :meth:`node_slot` and :meth:`rigid_pairs`;
+    round 92's :class:`gasp_taichi_mpm.hollow.Hollow` beneath."""
 
     def allocate_pairs(self, pair: int) -> None:
         """``pair`` (``gasp_core.mpm.rigid_pairs.pair_mode``): ``pair_many`` for 2 (rigid bodies among three or more),
@@ -52,10 +55,12 @@ class RigidPairs:
         """Each rigid body's box (``rigid_pairs.body_boxes``, shape (n_bodies, 2, 3), m) and each slot's ``mu``
         (``pair_frictions``); nothing unless ``pair_many``. ``collider``: round 63's (rigid_collider.py); ``support``
         round 65's tables (``rigid_pairs.support_data``, ``RigidFriction.set_support``); ``setup`` gives round 92's
-        outer points (``gasp_core.mpm.hollow.hollow_data``) where there are tables."""
+        outer points (``gasp_core.mpm.hollow.hollow_data``) where there are tables and a round body (else none
+        uploaded)."""
         from gasp_core.mpm.hollow import hollow_data
         self.allocate_collider(collider)
-        self.set_support(support, None if support is None or setup is None else hollow_data(setup, support[5]))
+        rnd = None if support is None or setup is None else np.asarray(support[5])
+        self.set_support(support, None if rnd is None or not (rnd > 0.0).any() else hollow_data(setup, rnd))
         if self.pair_many:
             self.pair_box.from_numpy(np.asarray(boxes, np.float64).reshape(-1, 3))
             self.pair_mu.from_numpy(np.asarray(mus, np.float64))

@@ -10,7 +10,7 @@ import numpy as np
 import warp as wp
 
 from gasp_core.mpm.rigid_friction import FLAT_FROM, FLAT_TO
-from gasp_core.mpm.rigid_support import HOLLOW_POWER_STEPS, HOLLOW_WINDOW, ROUND_DEEP
+from gasp_core.mpm.rigid_support import HOLLOW_POWER_STEPS, HOLLOW_REACH, HOLLOW_WINDOW, ROUND_DEEP
 
 vec3d = wp.types.vector(3, wp.float64)
 mat33d = wp.types.matrix((3, 3), wp.float64)
@@ -19,18 +19,24 @@ FLAT_W = wp.constant(wp.float64(FLAT_TO - FLAT_FROM))
 DEEP = wp.constant(wp.float64(ROUND_DEEP))
 WINDOW = wp.constant(wp.float64(HOLLOW_WINDOW))
 POWER = wp.constant(HOLLOW_POWER_STEPS)
+REACH = wp.constant(wp.float64(HOLLOW_REACH))
 
 
 @wp.struct
 class Hollow:
     """Round 92 (``gasp_core.mpm.hollow.hollow_data``): the outer points of the bodies that are not round, in their
-    rest frames (``X``; body ``b``'s rows ``start[b]`` to ``start[b + 1]``), each body's point spacing (m), and a
-    round body's rest axis and half-length (m; zeros: a sphere)."""
+    rest frames, sorted by cell (``X``; cell ``g``'s ``cstart[g]`` to ``cstart[g + 1]``; a body's cells' origin
+    ``corg``, size ``csize`` and ``cdims`` ``[nx, ny, nz, first cell]``), each body's point spacing (m), and a round
+    body's radius, half-length (m) and rest axis (zeros: a sphere's)."""
     X: wp.array(dtype=vec3d)
-    start: wp.array(dtype=wp.int32)
+    cstart: wp.array(dtype=wp.int32)
+    corg: wp.array(dtype=vec3d)
+    csize: wp.array(dtype=wp.float64)
+    cdims: wp.array(dtype=wp.int32)
     spacing: wp.array(dtype=wp.float64)
-    axis: wp.array(dtype=vec3d)
+    radius: wp.array(dtype=wp.float64)
     half: wp.array(dtype=wp.float64)
+    axis: wp.array(dtype=vec3d)
 
 
 def support_arrays(data, device, nb: int, setup=None) -> tuple:
@@ -44,14 +50,17 @@ def support_arrays(data, device, nb: int, setup=None) -> tuple:
         data = (np.zeros((nb, 3)), np.ones(nb), np.zeros((nb, 3, 3)), np.zeros(nb), 0, np.zeros(nb), 2.0)
     dirs, h, curv, delta, nd, rnd, cos_cone = data
     nb = len(rnd)
-    X, start, spacing, axis, half = (np.zeros((1, 3)), np.zeros(nb + 1, np.int32), np.zeros(nb), np.zeros((nb, 3)),
-                                     np.zeros(nb)) if setup is None else hollow_data(setup, rnd)
+    data = hollow_data(setup, rnd) if setup is not None else {
+        "X": np.zeros((1, 3)), "cstart": np.zeros(nb + 1, np.int32), "corg": np.zeros((nb, 3)), "csize": np.ones(nb),
+        "cdims": np.ravel([[1, 1, 1, b] for b in range(nb)]).astype(np.int32), "spacing": np.zeros(nb),
+        "radius": np.zeros(nb), "half": np.zeros(nb), "axis": np.zeros((nb, 3))}
     hol = Hollow()
-    hol.X = wp.array(X, dtype=vec3d, device=device)
-    hol.start = wp.array(start, dtype=wp.int32, device=device)
-    hol.spacing = wp.array(spacing, dtype=wp.float64, device=device)
-    hol.axis = wp.array(axis, dtype=vec3d, device=device)
-    hol.half = wp.array(half, dtype=wp.float64, device=device)
+    for name in ("X", "corg", "axis"):
+        setattr(hol, name, wp.array(data[name], dtype=vec3d, device=device))
+    for name in ("csize", "spacing", "radius", "half"):
+        setattr(hol, name, wp.array(data[name], dtype=wp.float64, device=device))
+    for name in ("cstart", "cdims"):
+        setattr(hol, name, wp.array(data[name], dtype=wp.int32, device=device))
     return (wp.array(dirs, dtype=vec3d, device=device), wp.array(h, dtype=wp.float64, device=device),
             wp.array(curv, dtype=mat33d, device=device), wp.array(delta, dtype=wp.float64, device=device), int(nd),
             wp.array(rnd, dtype=wp.float64, device=device), float(cos_cone), hol)
@@ -135,29 +144,63 @@ def axis_gap(Y: vec3d, e: vec3d, h: wp.float64):
 
 
 @wp.func
-def hollow_normal(hol: Hollow, f: int, r: int, Rf: mat33d, Rr: mat33d, cf: vec3d, cr: vec3d, fn: vec3d):
-    # round 92 (gasp_core.mpm.rigid_support.hollow_normal): the normal out of body f towards round body r's centre cr
-    # (a cylinder's axis), the least spread of f's outer points within d_min + WINDOW s of it, weighted (1 - (d -
-    # d_min) / (WINDOW s))^2 (power steps of tr(C) I - C from the nodes' fn, turned towards cr); fn where f has none
-    q = wp.transpose(Rf) * (cr - cf)
-    e = wp.transpose(Rf) * (Rr * hol.axis[r])
-    h = hol.half[r]
-    reach = WINDOW * hol.spacing[f]
-    d_min = wp.float64(1.0e30)
-    for i in range(hol.start[f], hol.start[f + 1]):
-        d_min = wp.min(d_min, axis_gap(hol.X[i] - q, e, h))
+def cell_span(lo: wp.float64, hi: wp.float64, c: wp.float64, n: int):
+    # the cells (first, last) of a body's n along one axis that [lo, hi] (m, from the cells' origin) meets
+    return wp.max(int(wp.floor(lo / c)), 0), wp.min(int(wp.floor(hi / c)), n - 1)
+
+
+@wp.func
+def hollow_sums(hol: Hollow, f: int, q: vec3d, e: vec3d, h: wp.float64, reach: wp.float64, d_min: wp.float64,
+                win: wp.float64):
+    # one pass over body f's outer points in the cells within reach of round body's segment q +- h e (f's frame):
+    # with win 0 the least distance (d_min's), else the plane fit's weighted sums (W, sum w Y, sum w Y Y^T)
+    ext = vec3d(wp.abs(e[0]), wp.abs(e[1]), wp.abs(e[2])) * h + vec3d(reach, reach, reach)
+    o = q - hol.corg[f]
+    c = hol.csize[f]
+    nx = hol.cdims[4 * f]
+    ny = hol.cdims[4 * f + 1]
+    nz = hol.cdims[4 * f + 2]
+    first = hol.cdims[4 * f + 3]
+    i0, i1 = cell_span(o[0] - ext[0], o[0] + ext[0], c, nx)
+    j0, j1 = cell_span(o[1] - ext[1], o[1] + ext[1], c, ny)
+    k0, k1 = cell_span(o[2] - ext[2], o[2] + ext[2], c, nz)
+    dm = d_min
     W = wp.float64(0.0)
     y = vec3d(wp.float64(0.0))
     S = mat33d(wp.float64(0.0))
-    for i in range(hol.start[f], hol.start[f + 1]):
-        Y = hol.X[i] - q
-        t = wp.float64(1.0) - (axis_gap(Y, e, h) - d_min) / reach
-        if t > wp.float64(0.0):
-            W = W + t * t
-            y = y + (t * t) * Y
-            S = S + (t * t) * wp.outer(Y, Y)
+    for i in range(i0, i1 + 1):
+        for j in range(j0, j1 + 1):
+            for k in range(k0, k1 + 1):
+                g = first + (i * ny + j) * nz + k
+                for p in range(hol.cstart[g], hol.cstart[g + 1]):
+                    Y = hol.X[p] - q
+                    d = axis_gap(Y, e, h)
+                    if d <= reach:
+                        if win == wp.float64(0.0):
+                            dm = wp.min(dm, d)
+                        else:
+                            t = wp.float64(1.0) - (d - d_min) / win
+                            if t > wp.float64(0.0):
+                                W = W + t * t
+                                y = y + (t * t) * Y
+                                S = S + (t * t) * wp.outer(Y, Y)
+    return dm, W, y, S
+
+
+@wp.func
+def hollow_normal(hol: Hollow, f: int, r: int, Rf: mat33d, Rr: mat33d, cf: vec3d, cr: vec3d, fn: vec3d):
+    # round 92 (gasp_core.mpm.rigid_support.hollow_normal): the normal out of body f towards round body r's centre cr
+    # (a cylinder's axis), the least spread of f's outer points within d_min + WINDOW s of it, of those within its
+    # radius + REACH s, weighted (1 - (d - d_min) / (WINDOW s))^2 (power steps of tr(C) I - C from the nodes' fn,
+    # turned towards cr); fn where there are none. Only the cells within the reach are read (hollow_sums).
+    q = wp.transpose(Rf) * (cr - cf)
+    e = wp.transpose(Rf) * (Rr * hol.axis[r])
+    h = hol.half[r]
+    reach = hol.radius[r] + REACH * hol.spacing[f]
+    d_min, W0, y0, S0 = hollow_sums(hol, f, q, e, h, reach, wp.float64(1.0e30), wp.float64(0.0))
     out = fn
-    if W > wp.float64(0.0):
+    if d_min < wp.float64(1.0e29):
+        dm, W, y, S = hollow_sums(hol, f, q, e, h, reach, d_min, WINDOW * hol.spacing[f])
         y = y / W
         C = S / W - wp.outer(y, y)
         M = (C[0, 0] + C[1, 1] + C[2, 2]) * wp.identity(n=3, dtype=wp.float64) - C

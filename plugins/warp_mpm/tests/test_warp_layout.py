@@ -72,6 +72,10 @@ _PLANES = "the ground and wall planes of a scene (a handful)"
 _BLOCK = "one block of BLOCK (256) items, one thread a block (the gpu schedule's block sums)"
 _ROWS = "a block partial's rows (bodies, supports) or columns (the balance's sums)"
 #: Loop iterators allowed in a kernel or function outside :data:`CPU_ONLY`, as written, each with what it counts.
+#: Round 92 (rigid_support.hollow_sums): the cells of a body's outer points within a round body's reach of its
+#: contact in a hollow (its radius and 3 point spacings, cells of 4: about (2 R / 4 s + 3)^3, 125-350 on the 5 cm
+#: ball at n_grid 32-48), read once a concave pair and substep by the pair's thread, not the body's all points.
+_HOLLOW_CELLS = "round 92: the cells within a round body's reach in a hollow (rigid_support.hollow_sums)"
 LOOP_BOUNDS = {
     "range(planes.shape[0])": _PLANES,
     "range(ground.shape[0])": _PLANES,
@@ -91,6 +95,12 @@ LOOP_BOUNDS = {
     "range(sweeps)": "the pairs' sweeps, rigid_pairs.SWEEPS (8; round 62)",
     "range(bisect)": "round 83: a soft point's domain's bisections along a cylinder's axis, roll_contact.DOMAIN_BISECT "
                      "(48; roll_shape.domain_near, one thread a point)",
+    "range(i0, i1 + 1)": _HOLLOW_CELLS,
+    "range(j0, j1 + 1)": _HOLLOW_CELLS,
+    "range(k0, k1 + 1)": _HOLLOW_CELLS,
+    "range(hol.cstart[g], hol.cstart[g + 1])": "round 92: one cell's outer points (4 point spacings across: tens of "
+                                               "points; rigid_support.hollow_sums)",
+    "range(POWER)": "round 92: the plane fit's power steps, rigid_support.HOLLOW_POWER_STEPS (24)",
     "range(n_on)": "the touching pairs, as the node kernel listed them (round 62, 63; rigid_pairs' one thread)",
     "range(n_isl)": "the islands of touching rigid bodies, at most n_bodies (round 81, rigid_pairs' islands)",
     "range(isl_start[i], isl_start[i + 1])": "an island's touching pairs (round 81, rigid_pairs' sweep, one thread "
