@@ -23,7 +23,9 @@ normal), turned towards ``c``. A sampled surface's nearest points lie about the 
 sides, so that direction is the normal, and the points' scatter along it (a scan's) moves the fit little. Measured on
 the 25 cm hollow: within 0.04 degrees rms of the radial on a Fibonacci sampling; on a scan-like one (jittered a
 quarter spacing along the normal) 0.25-0.46 degrees rms, where the mean of the nearest points' directions was 1.2-1.5
-degrees. The gap stays the hull's (deep: no approach allowed, as before).
+degrees. The gap stays the hull's (deep: no approach allowed, as before). The engines read only the outer points in
+the cells (:func:`cell_index`, :data:`CELL` spacings) within the round body's radius and
+``rigid_support.HOLLOW_REACH`` spacings of its centre or axis, a few hundred, once a concave pair and substep.
 
 :func:`hollow_normal` (in :mod:`gasp_core.mpm.rigid_support`, re-exported here) is the NumPy reference both engines
 follow; docs/rigid.md "Round 92" names their functions.
