@@ -30,8 +30,10 @@ class RigidFriction:
         docs/reliability.md: the empty tables' eight ``from_numpy`` calls, each a Taichi kernel turned into IR, cost
         about 0.4 s of every engine built; with every band 0 no table row is read: ``body_row`` loops ``sup_nd`` = 0 times, ``flat_at`` reads
         ``sup_delta`` alone and returns 1, and ``roll_point`` runs only where the flatness is under 1). ``hollow``:
-        round 92's outer points (``gasp_core.mpm.hollow.hollow_data``) as ``hol_*``; None: none."""
+        round 92's outer points (``gasp_core.mpm.hollow.hollow_data``) as ``hol_*``; None: none. Round 93: ``sup_curved``,
+        per row 1.0 where the body reads curved (``gasp_core.mpm.rigid_support.curved_rows``)."""
         import numpy as np
+        from gasp_core.mpm.rigid_support import curved_rows
         self.set_hollow(hollow)
         if data is None:
             if not getattr(self, "sup_empty", False):
@@ -42,6 +44,7 @@ class RigidFriction:
                 self.sup_curv = ti.Matrix.field(3, 3, ti.f64, shape=nb)
                 self.sup_delta = ti.field(ti.f64, shape=nb)
                 self.sup_round = ti.field(ti.f64, shape=nb)
+                self.sup_curved = ti.field(ti.f64, shape=nb)
             return
         dirs, h, curv, delta, self.sup_nd, rnd, self.sup_cone = data
         self.sup_empty = False
@@ -50,8 +53,9 @@ class RigidFriction:
         self.sup_curv = ti.Matrix.field(3, 3, ti.f64, shape=len(h))
         self.sup_delta = ti.field(ti.f64, shape=len(delta))
         self.sup_round = ti.field(ti.f64, shape=len(rnd))
+        self.sup_curved = ti.field(ti.f64, shape=len(h))
         for f, a in ((self.sup_dirs, dirs), (self.sup_h, h), (self.sup_curv, curv), (self.sup_delta, delta),
-                     (self.sup_round, rnd)):
+                     (self.sup_round, rnd), (self.sup_curved, curved_rows(h, curv))):
             f.from_numpy(np.asarray(a, np.float64))
 
     @ti.func
@@ -74,7 +78,8 @@ class RigidFriction:
         take their line of centres; a pair of one round body takes as its normal (from ``a`` into ``b``) the other
         body's table direction within the cone (``sup_cone``, its cosine) of the nodes' ``n`` that leaves the two
         supports farthest apart (the separating axis, ``rigid_support.round_normal``); ``n`` otherwise, with the
-        switch off, or where no direction lies in the cone."""
+        switch off, or where no direction lies in the cone; round 92: too deep in the hull (a hollow), and round 93:
+        where the row reads the body curved (``sup_curved``), the plane fit to its outer points (``hollow_normal``)."""
         out = n
         if self.sup_cone <= 1.0 and self.sup_round[a] == 1.0 and self.sup_round[b] == 1.0:
             out = (self.rb_c[b] - self.rb_c[a]).normalized()
@@ -87,6 +92,7 @@ class RigidFriction:
             Rf, Rr = self.rb_R[f], self.rb_R[r]
             top = ti.cast(-1.0e30, ti.f64)
             hr = ti.cast(0.0, ti.f64)
+            best = 0
             for i in range(self.sup_nd):
                 e = Rf @ self.sup_dirs[f * self.sup_nd + i]
                 if e.dot(fn) >= self.sup_cone:
@@ -96,10 +102,13 @@ class RigidFriction:
                         top = gap
                         hr = h_r
                         out = sg * e
+                        best = f * self.sup_nd + i
             if top < -ROUND_DEEP * hr:   # deeper in the other body's hull than a contact can be: concave, the nodes'
                 out = n
                 if self.sup_cone <= 1.0 and top > -1.0e29:   # round 92: in a hollow, from f's outer points
                     out = sg * self.hollow_normal(f, r, fn)
+            elif top > -1.0e29 and self.sup_curved[best] > 0.0:   # round 93: a curved face, the fit from its row
+                out = sg * self.hollow_normal(f, r, sg * out)
         return out
 
     @ti.func
@@ -111,8 +120,10 @@ class RigidFriction:
         ra, rb = self.sup_round[a], self.sup_round[b]
         one = (ra == 1.0 and rb == 0.0) or (ra == 0.0 and rb == 1.0)
         if self.sup_cone <= 1.0 and self.sup_nd > 0 and ((ra == 1.0 and rb == 1.0) or one):
-            g = (n.dot(self.rb_c[b] - self.rb_c[a]) - self.sup_h[self.body_row(a, self.rb_R[a], n)]
-                 - self.sup_h[self.body_row(b, self.rb_R[b], -n)])
+            row_a, row_b = self.body_row(a, self.rb_R[a], n), self.body_row(b, self.rb_R[b], -n)
+            curved = (ra == 0.0 and self.sup_curved[row_a] > 0.0) or (rb == 0.0 and self.sup_curved[row_b] > 0.0)
+            if not curved:   # round 93: none known where the body that is not round reads curved at its row
+                g = n.dot(self.rb_c[b] - self.rb_c[a]) - self.sup_h[row_a] - self.sup_h[row_b]
         return g
 
     @ti.func

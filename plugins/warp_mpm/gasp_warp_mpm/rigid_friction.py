@@ -163,7 +163,7 @@ def build_rigid_pair(Ft):
             # round 91: the normal from the shapes; with a gap known, only the approach that closes it this substep
             n = round_normal(t_dirs, t_h, t_round, nd, cos_cone, a, b, rot[a], rot[b], centre[a], centre[b], n / ln,
                              hol)
-            g = pair_gap(t_dirs, t_h, t_round, nd, cos_cone, a, b, rot[a], rot[b], centre[a], centre[b], n)
+            g = pair_gap(t_dirs, t_h, t_round, nd, cos_cone, a, b, rot[a], rot[b], centre[a], centre[b], n, hol)
             x_c = vec3d(acc[1], acc[2], acc[3]) / W
             MA = mass[a]
             MB = mass[b]

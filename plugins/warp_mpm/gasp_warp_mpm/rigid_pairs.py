@@ -158,7 +158,7 @@ def pair_normal(acc: wp.array(dtype=wp.float64), s: int, nb: int, t_dirs: wp.arr
     nn = round_normal(t_dirs, t_h, t_round, nd, cos_cone, a, b, rot[a], rot[b], centre[a], centre[b], nn, hol)
     for ax in range(3):
         acc[7 * s + 4 + ax] = nn[ax]
-    gap = pair_gap(t_dirs, t_h, t_round, nd, cos_cone, a, b, rot[a], rot[b], centre[a], centre[b], nn)
+    gap = pair_gap(t_dirs, t_h, t_round, nd, cos_cone, a, b, rot[a], rot[b], centre[a], centre[b], nn, hol)
     allow[s] = allowed_approach(gap, wp.dot(vel[a] - vel[b], nn), dt)
     return nn
 

@@ -27,7 +27,8 @@ class Hollow:
     """Round 92 (``gasp_core.mpm.hollow.hollow_data``): the outer points of the bodies that are not round, in their
     rest frames, sorted by cell (``X``; cell ``g``'s ``cstart[g]`` to ``cstart[g + 1]``; a body's cells' origin
     ``corg``, size ``csize`` and ``cdims`` ``[nx, ny, nz, first cell]``), each body's point spacing (m), and a round
-    body's radius, half-length (m) and rest axis (zeros: a sphere's)."""
+    body's radius, half-length (m) and rest axis (zeros: a sphere's); round 93: ``curved``, per table row 1.0 where
+    the body reads curved there (``gasp_core.mpm.rigid_support.curved_rows``)."""
     X: wp.array(dtype=vec3d)
     cstart: wp.array(dtype=wp.int32)
     corg: wp.array(dtype=vec3d)
@@ -37,6 +38,7 @@ class Hollow:
     radius: wp.array(dtype=wp.float64)
     half: wp.array(dtype=wp.float64)
     axis: wp.array(dtype=vec3d)
+    curved: wp.array(dtype=wp.float64)
 
 
 def support_arrays(data, device, nb: int, setup=None) -> tuple:
@@ -45,6 +47,7 @@ def support_arrays(data, device, nb: int, setup=None) -> tuple:
     92's :class:`Hollow` (of ``setup``; empty without it); ``data`` None: no table for any of the ``nb`` bodies
     (every band 0: every contact a face's)."""
     from gasp_core.mpm.hollow import hollow_data
+    from gasp_core.mpm.rigid_support import curved_rows
     if data is None:
         nb = max(int(nb), 1)
         data = (np.zeros((nb, 3)), np.ones(nb), np.zeros((nb, 3, 3)), np.zeros(nb), 0, np.zeros(nb), 2.0)
@@ -61,6 +64,7 @@ def support_arrays(data, device, nb: int, setup=None) -> tuple:
         setattr(hol, name, wp.array(data[name], dtype=wp.float64, device=device))
     for name in ("cstart", "cdims"):
         setattr(hol, name, wp.array(data[name], dtype=wp.int32, device=device))
+    hol.curved = wp.array(curved_rows(h, curv), dtype=wp.float64, device=device)
     return (wp.array(dirs, dtype=vec3d, device=device), wp.array(h, dtype=wp.float64, device=device),
             wp.array(curv, dtype=mat33d, device=device), wp.array(delta, dtype=wp.float64, device=device), int(nd),
             wp.array(rnd, dtype=wp.float64, device=device), float(cos_cone), hol)
@@ -221,7 +225,8 @@ def round_normal(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), rnd
     # one round body takes as its normal (from A into B) the other body's table direction within the cone of the
     # nodes' n that leaves the two supports farthest apart (the separating axis, rigid_support.round_normal); n
     # otherwise, with the switch off (cos_cone > 1), or where no direction lies in the cone; round 92: too deep in the
-    # hull for a contact (a hollow), a round body takes hollow_normal
+    # hull for a contact (a hollow), a round body takes hollow_normal; round 93: so does one whose row reads the other
+    # body curved there (hol.curved, rigid_support.curved_rows), started from the row
     out = n
     if cos_cone <= wp.float64(1.0) and rnd[a] == wp.float64(1.0) and rnd[b] == wp.float64(1.0):
         out = wp.normalize(cB - cA)
@@ -241,6 +246,7 @@ def round_normal(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), rnd
         dc = sg * (cB - cA)
         top = wp.float64(-1.0e30)
         hr = wp.float64(0.0)
+        best = int(0)
         for i in range(nd):
             e = Rf * dirs[f * nd + i]
             if wp.dot(e, fn) >= cos_cone:
@@ -250,31 +256,19 @@ def round_normal(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), rnd
                     top = gap
                     hr = h_r
                     out = sg * e
+                    best = f * nd + i
+        cf = cA
+        cr = cB
+        if sg < wp.float64(0.0):
+            cf = cB
+            cr = cA
         if top < -DEEP * hr:   # deeper in the other body's hull than a contact can be: a concave part, the nodes' n
             out = n
             if cos_cone <= wp.float64(1.0) and top > wp.float64(-1.0e29):
-                cf = cA
-                cr = cB
-                if sg < wp.float64(0.0):
-                    cf = cB
-                    cr = cA
                 out = sg * hollow_normal(hol, f, r, Rf, Rr, cf, cr, fn)
+        elif top > wp.float64(-1.0e29) and hol.curved[best] > wp.float64(0.0):   # round 93: a curved face, the fit
+            out = sg * hollow_normal(hol, f, r, Rf, Rr, cf, cr, sg * out)
     return out
-
-
-@wp.func
-def pair_gap(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), rnd: wp.array(dtype=wp.float64), nd: int,
-             cos_cone: wp.float64, a: int, b: int, RA: mat33d, RB: mat33d, cA: vec3d, cB: vec3d, n: vec3d):
-    # round 91 (gasp_core.mpm.rigid_support.pair_gap): two spheres, or a sphere and a body that is not round, the gap
-    # between the two supports along n (m, < 0 overlapping); else -1e30 (none known: the law as before, every approach
-    # of touching nodes removed)
-    g = wp.float64(-1.0e30)
-    ka = rnd[a]
-    kb = rnd[b]
-    one = (ka == wp.float64(1.0) and kb == wp.float64(0.0)) or (ka == wp.float64(0.0) and kb == wp.float64(1.0))
-    if cos_cone <= wp.float64(1.0) and nd > 0 and ((ka == wp.float64(1.0) and kb == wp.float64(1.0)) or one):
-        g = (wp.dot(n, cB - cA) - h[body_row(dirs, nd, a, RA, n)] - h[body_row(dirs, nd, b, RB, -n)])
-    return g
 
 
 @wp.func
@@ -307,3 +301,24 @@ def slip_at(x_c: vec3d, VA: vec3d, wA: vec3d, cA: vec3d, VB: vec3d, wB: vec3d, c
     rB = x_c - cB
     u = VA + wp.cross(wA, rA) - VB - wp.cross(wB, rB)
     return rA, rB, u - wp.dot(u, n) * n
+
+
+@wp.func
+def pair_gap(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), rnd: wp.array(dtype=wp.float64), nd: int,
+             cos_cone: wp.float64, a: int, b: int, RA: mat33d, RB: mat33d, cA: vec3d, cB: vec3d, n: vec3d,
+             hol: Hollow):
+    # round 91 (gasp_core.mpm.rigid_support.pair_gap): two spheres, or a sphere and a body that is not round, the gap
+    # between the two supports along n (m, < 0 overlapping); else -1e30 (none known: the law as before, every approach
+    # of touching nodes removed); round 93: none known where the body that is not round reads curved at its row
+    g = wp.float64(-1.0e30)
+    ka = rnd[a]
+    kb = rnd[b]
+    one = (ka == wp.float64(1.0) and kb == wp.float64(0.0)) or (ka == wp.float64(0.0) and kb == wp.float64(1.0))
+    if cos_cone <= wp.float64(1.0) and nd > 0 and ((ka == wp.float64(1.0) and kb == wp.float64(1.0)) or one):
+        row_a = body_row(dirs, nd, a, RA, n)
+        row_b = body_row(dirs, nd, b, RB, -n)
+        curved = (ka == wp.float64(0.0) and hol.curved[row_a] > wp.float64(0.0)) or (
+            kb == wp.float64(0.0) and hol.curved[row_b] > wp.float64(0.0))
+        if not curved:
+            g = wp.dot(n, cB - cA) - h[row_a] - h[row_b]
+    return g

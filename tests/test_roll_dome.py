@@ -1,0 +1,119 @@
+"""Round 93 (issue 67 items 2 and 4, a round body on a curved convex rigid body; ``docs/rigid.md`` "Round 93: a ball
+over a dome"): a rigid ball released at rest 20 degrees from the top of a rigid dome rolls (or slides) down it and
+leaves it where Newton says, on both MPM engines.
+
+Round 91 took a round body's normal with a body that is not round from that body's support table, the nearest of rows
+about 12 degrees apart: on a curved face up to 7.5 degrees off. The ball ran over the rows' facets, reached 40 degrees
+2.4 % early and left the dome 11.6 % early. Where the table reads the face curved (``rigid_support.curved_rows``), the
+normal is now round 92's plane fit to the body's outer points nearest the ball.
+
+- **The family** (``benchmarks/studies/roll_dome93.py``): n_grid 32 and 48, the ball's and the dome's Gaussians on
+  their spheres or scan-like, mu 0.5 (rolls, then slips near the edge) and 0 (slides): the time to 40 degrees and
+  the time to be 5 mm clear of the dome each within :data:`TOL` of the closed form (``roll_dome93.reference``),
+  two-sided.
+- **The catch**: the table's rows (``rigid_support.CURVED`` 0) fail it, on both engines.
+- **NumPy**: the dome's rows read curved and a box's faces flat; the normal along the ball's path is radial within
+  0.2 degrees with the rule and 3 degrees or more off without it; the gap is not known on a curved row.
+"""
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks" / "studies"))
+
+import roll_dome93 as RD  # noqa: E402
+
+from gasp_core.mpm import rigid_support  # noqa: E402
+
+ENGINES = ("warp_mpm", "taichi_mpm")
+#: Two-sided, relative, on each time (a 5 % bias fails; the rows miss by 2.4 and 11.6 %).
+TOL = RD.TOL
+
+
+def problem(r: dict) -> str | None:
+    bad = [f"{q} {r[q]:.4f} s against {r['want'][q]:.4f} ({100 * r['err'][q]:+.2f} %)" for q in ("t40", "t_off")
+           if not abs(r["err"][q]) <= TOL]
+    return None if not bad else f"n_grid {r['n_grid']} {r['sampling']} mu {r['mu']}: " + "; ".join(bad)
+
+
+def test_the_reference_leaves_where_the_closed_forms_say():
+    """Rolling throughout (mu large) it leaves at ``cos = 2 cos theta_0 / (3 + k)`` (56.4 degrees for k 0.4; it slips
+    only as ``N`` vanishes), sliding (k 0) at ``2 cos theta_0 / 3`` (51.2)."""
+    c0 = math.cos(math.radians(RD.THETA0))
+    assert RD.reference(0.0, 0.0)["leave_deg"] == pytest.approx(math.degrees(math.acos(2 * c0 / 3)), abs=0.02)
+    assert RD.reference(0.4, 100.0)["leave_deg"] == pytest.approx(math.degrees(math.acos(2 * c0 / 3.4)), abs=0.1)
+    assert RD.reference(0.4, 0.5)["t40"] > RD.reference(0.0, 0.0)["t40"]   # rolling is slower
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("engine", ENGINES)
+def test_a_ball_leaves_a_rigid_dome_where_newton_says(engine):
+    pytest.importorskip(f"gasp_{engine}")
+    r = RD.row(engine, 32, "fibonacci", 0.5)
+    assert problem(r) is None, f"{engine}: {problem(r)}"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("engine", ENGINES)
+def test_a_ball_leaves_a_rigid_dome_across_the_family(engine):
+    pytest.importorskip(f"gasp_{engine}")
+    bad = [p for p in (problem(RD.row(engine, *case)) for case in RD.family()) if p]
+    assert not bad, f"{engine}: " + "; ".join(bad)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("engine", ENGINES)
+def test_the_dome_check_catches_the_tables_rows(engine, monkeypatch):
+    pytest.importorskip(f"gasp_{engine}")
+    monkeypatch.setattr(rigid_support, "CURVED", 0)
+    r = RD.row(engine, 32, "fibonacci", 0.5)
+    assert problem(r) is not None, f"{engine}: the rows passed ({r['err']})"
+
+
+# --------------------------------------------------------------------------- NumPy
+def _dome(n_grid: int = 32, sampling: str = "fibonacci"):
+    from gasp_core.mpm.hollow import outer_points
+    from gasp_core.mpm.rigid_support import round_table, support_table
+    s = RD.BOX / n_grid / 2
+    X = RD.dome_points(s, sampling)
+    cm = X.mean(0)
+    table = support_table(X - cm, s)
+    ball = (table[0], *round_table(table[0], np.array([RD.BALL_R, 0.0, 0.0, 0.0, 0.0])), table[3])
+    Xo, so = outer_points(X - cm)
+    return table, ball, cm, (Xo, so, np.zeros(3), 0.0, RD.BALL_R)
+
+
+def _path():
+    for th in np.radians(np.arange(0.0, 56.0, 1.0)):
+        radial = np.array([math.sin(th), 0.0, math.cos(th)])
+        yield radial, RD.DOME_C + (RD.DOME_R + RD.BALL_R) * radial
+
+
+def test_the_domes_rows_read_curved_and_a_boxs_faces_flat():
+    from gasp_core.mpm.rigid_support import support_table
+    from gasp_core.testing.helpers import box_points
+    table, _, _, _ = _dome()
+    assert rigid_support.curved_rows(table[1], table[2]).mean() > 0.9
+    X, _ = box_points((0.0, 0.0, 0.0), (0.3, 0.2, 0.05), 0.01)
+    box = support_table(X - X.mean(0), 0.01)
+    faces = np.flatnonzero(np.isclose(np.abs(box[0]), 1.0).any(axis=1))   # the rest frame's axes
+    assert len(faces) >= 6 and not rigid_support.curved_rows(box[1], box[2])[faces].any()
+
+
+@pytest.mark.parametrize("curved, worst", ((1, (0.0, 0.2)), (0, (3.0, 90.0))))
+def test_the_normal_over_a_dome_is_radial_only_from_its_outer_points(curved, worst, monkeypatch):
+    monkeypatch.setattr(rigid_support, "CURVED", curved)
+    table, ball, cm, outer = _dome()
+    cone, I = math.cos(math.radians(20.0)), np.eye(3)
+    off = []
+    for radial, c in _path():
+        n = rigid_support.round_normal(table, I, cm, ball, I, c, radial, cone, outer=outer)
+        off.append(math.degrees(math.acos(min(1.0, float(n @ radial)))))
+        gap = rigid_support.pair_gap(table, I, cm, 0.0, ball, I, c, 1.0, n, cone)
+        assert (gap < -1e29) == bool(curved), gap   # no gap known on a curved row
+    assert worst[0] <= max(off) < worst[1], max(off)
