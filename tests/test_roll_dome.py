@@ -10,10 +10,12 @@ normal is now round 92's plane fit to the body's outer points nearest the ball.
 - **The family** (``benchmarks/studies/roll_dome93.py``): n_grid 32 and 48, the ball's and the dome's Gaussians on
   their spheres or scan-like, mu 0.5 (rolls, then slips near the edge) and 0 (slides): the time to 40 degrees and
   the time to be 5 mm clear of the dome each within :data:`TOL` of the closed form (``roll_dome93.reference``),
-  two-sided.
-- **The catch**: the table's rows (``rigid_support.CURVED`` 0) fail it, on both engines.
-- **NumPy**: the dome's rows read curved and a box's faces flat; the normal along the ball's path is radial within
-  0.2 degrees with the rule and 3 degrees or more off without it; the gap is not known on a curved row.
+  two-sided; and on a mound (a low cap of a 1 m sphere, its slope 5-21 % along the path) the time from 3 to 12
+  degrees.
+- **The catch**: the table's rows (``rigid_support.CURVED`` 0) fail both, on both engines.
+- **NumPy**: the dome's and the mound's rows and a scanned face read curved, a lattice's faces flat; the normal along
+  the ball's path is radial within 0.2 degrees with the rule and 3 degrees or more off without it; the gap is not
+  known on a curved row.
 """
 from __future__ import annotations
 
@@ -36,8 +38,8 @@ TOL = RD.TOL
 
 
 def problem(r: dict) -> str | None:
-    bad = [f"{q} {r[q]:.4f} s against {r['want'][q]:.4f} ({100 * r['err'][q]:+.2f} %)" for q in ("t40", "t_off")
-           if not abs(r["err"][q]) <= TOL]
+    bad = [f"{q} {r[q]:.4f} s against {r['want'][q]:.4f} ({100 * e:+.2f} %)" for q, e in r["err"].items()
+           if not abs(e) <= TOL]
     return None if not bad else f"n_grid {r['n_grid']} {r['sampling']} mu {r['mu']}: " + "; ".join(bad)
 
 
@@ -47,7 +49,7 @@ def test_the_reference_leaves_where_the_closed_forms_say():
     c0 = math.cos(math.radians(RD.THETA0))
     assert RD.reference(0.0, 0.0)["leave_deg"] == pytest.approx(math.degrees(math.acos(2 * c0 / 3)), abs=0.02)
     assert RD.reference(0.4, 100.0)["leave_deg"] == pytest.approx(math.degrees(math.acos(2 * c0 / 3.4)), abs=0.1)
-    assert RD.reference(0.4, 0.5)["t40"] > RD.reference(0.0, 0.0)["t40"]   # rolling is slower
+    assert RD.reference(0.4, 0.5)["t1"] > RD.reference(0.0, 0.0)["t1"]   # rolling is slower
 
 
 @pytest.mark.slow
@@ -59,26 +61,29 @@ def test_a_ball_leaves_a_rigid_dome_where_newton_says(engine):
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("shape", ("dome", "mound"))
 @pytest.mark.parametrize("engine", ENGINES)
-def test_a_ball_leaves_a_rigid_dome_across_the_family(engine):
+def test_a_ball_rolls_over_a_rigid_dome_or_mound_across_the_family(engine, shape):
     pytest.importorskip(f"gasp_{engine}")
-    bad = [p for p in (problem(RD.row(engine, *case)) for case in RD.family()) if p]
-    assert not bad, f"{engine}: " + "; ".join(bad)
+    bad = [p for p in (problem(RD.row(engine, *case, shape=shape)) for case in RD.family()) if p]
+    assert not bad, f"{engine} {shape}: " + "; ".join(bad)
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("shape", ("dome", "mound"))
 @pytest.mark.parametrize("engine", ENGINES)
-def test_the_dome_check_catches_the_tables_rows(engine, monkeypatch):
+def test_the_dome_check_catches_the_tables_rows(engine, shape, monkeypatch):
     pytest.importorskip(f"gasp_{engine}")
     monkeypatch.setattr(rigid_support, "CURVED", 0)
-    r = RD.row(engine, 32, "fibonacci", 0.5)
-    assert problem(r) is not None, f"{engine}: the rows passed ({r['err']})"
+    r = RD.row(engine, 32, "fibonacci", 0.5, shape=shape)
+    assert problem(r) is not None, f"{engine} {shape}: the rows passed ({r['err']})"
 
 
 # --------------------------------------------------------------------------- NumPy
-def _dome(n_grid: int = 32, sampling: str = "fibonacci"):
+def _dome(n_grid: int = 32, sampling: str = "fibonacci", shape: str = "dome"):
     from gasp_core.mpm.hollow import outer_points
     from gasp_core.mpm.rigid_support import round_table, support_table
+    RD.use(shape)
     s = RD.BOX / n_grid / 2
     X = RD.dome_points(s, sampling)
     cm = X.mean(0)
@@ -89,26 +94,33 @@ def _dome(n_grid: int = 32, sampling: str = "fibonacci"):
 
 
 def _path():
-    for th in np.radians(np.arange(0.0, 56.0, 1.0)):
+    for th in np.radians(np.linspace(0.0, 55.0 if RD.OFF else RD.THETA1, 56)):
         radial = np.array([math.sin(th), 0.0, math.cos(th)])
         yield radial, RD.DOME_C + (RD.DOME_R + RD.BALL_R) * radial
 
 
-def test_the_domes_rows_read_curved_and_a_boxs_faces_flat():
+def test_a_dome_a_mound_and_a_scanned_face_read_curved_and_a_lattices_faces_flat():
+    import roll_pair90
     from gasp_core.mpm.rigid_support import support_table
     from gasp_core.testing.helpers import box_points
-    table, _, _, _ = _dome()
-    assert rigid_support.curved_rows(table[1], table[2]).mean() > 0.9
-    X, _ = box_points((0.0, 0.0, 0.0), (0.3, 0.2, 0.05), 0.01)
+    for shape in ("dome", "mound"):
+        table, _, _, _ = _dome(shape=shape)
+        assert rigid_support.curved_rows(table[1], table[2]).mean() > 0.9, shape
+    X, _ = box_points((-0.12, -0.12, 0.0), (0.20, 0.12, 0.03), 0.01)
     box = support_table(X - X.mean(0), 0.01)
     faces = np.flatnonzero(np.isclose(np.abs(box[0]), 1.0).any(axis=1))   # the rest frame's axes
     assert len(faces) >= 6 and not rigid_support.curved_rows(box[1], box[2])[faces].any()
+    Y = np.concatenate([roll_pair90.scan_top(0.02), X])   # the same slab scanned: its top is not an exact plane
+    scan = support_table(Y - Y.mean(0), 0.01)
+    top = int(np.argmax(scan[0] @ np.array([0.0, 0.0, 1.0])))
+    assert rigid_support.curved_rows(scan[1], scan[2])[top] == 1.0
 
 
+@pytest.mark.parametrize("shape", ("dome", "mound"))
 @pytest.mark.parametrize("curved, worst", ((1, (0.0, 0.2)), (0, (3.0, 90.0))))
-def test_the_normal_over_a_dome_is_radial_only_from_its_outer_points(curved, worst, monkeypatch):
+def test_the_normal_over_a_dome_is_radial_only_from_its_outer_points(curved, worst, shape, monkeypatch):
     monkeypatch.setattr(rigid_support, "CURVED", curved)
-    table, ball, cm, outer = _dome()
+    table, ball, cm, outer = _dome(shape=shape)
     cone, I = math.cos(math.radians(20.0)), np.eye(3)
     off = []
     for radial, c in _path():

@@ -18,9 +18,12 @@ touches, ``L theta'' = g sin theta - f / m`` with the normal force ``N = m (g co
 (``f = k m g sin theta / (1 + k)``) while ``|f| <= mu N`` and then slips (``f = mu N`` against the contact's slip, the
 spin ``I omega' = f R``); it leaves when ``N`` reaches 0 (rolling throughout: ``cos theta = 2 cos theta_0 / (3 + k)``,
 56.4 degrees for ``k = 0.4``; sliding ``k = 0``: 51.2), then flies. Judged on the time the ball's centre takes to
-reach 40 degrees (``t40``, on the dome throughout) and the time it is ``DELTA`` (5 mm) farther than ``L`` from the
-dome's centre (``t_off``: it has left), linear between frames, each against the reference, and ``sink`` (the
-centre's least distance less ``L`` before 40 degrees, m; negative: into the dome).
+reach 40 degrees (``t1``, on the dome throughout), its speed there (``v1``) and the time it is ``DELTA`` (5 mm)
+farther than ``L`` from the dome's centre (``t_off``: it has left), linear between frames, each against the
+reference; ``sink`` (the centre's least distance less ``L`` before 40 degrees, m; negative: into the dome) is
+reported. ``--shape mound``: a low cap of a 1 m sphere, the ball from 3 to 12 degrees, judged on ``v1`` alone: near
+the top the slope is 3 degrees, so a scan's sampling noise in the normal there (0.4-0.6 degrees rms) moves the start
+and every time after it (``t1`` is reported), while the speed at 12 degrees is the energy's, whatever the start.
 
 ``python benchmarks/studies/roll_dome93.py --engine warp_mpm --out benchmarks/results/roll_dome93_warp.json``
 (refused if the file exists); ``--dome-rule 0``: round 91's table rows on the dome (the broken variant).
@@ -42,13 +45,26 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import roll_family88 as RF  # noqa: E402
 import test_rolling as rl  # noqa: E402
 
-#: The dome's sphere: its radius (m) and centre (m, 5 cm under the ground); the block it is cut from (m).
-DOME_R, DOME_C = 0.2, np.array([0.22, 0.3, 0.05])
-BLOCK_LO, BLOCK_HI = np.array([0.02, 0.1, 0.0]), np.array([0.42, 0.5, 0.26])
-#: The ball's radius (m), the release angle from the top (degrees), the density ratio, the box (m), frames a second.
-BALL_R, THETA0, DENSITY_RATIO, BOX, FPS = 0.05, 20.0, 10.0, 0.6, 120
-#: The angle (degrees) of ``t40``, the distance past ``L`` (m) of ``t_off``, seconds run.
-THETA1, DELTA, RUN_T = 40.0, 0.005, 0.45
+#: The ball's radius (m), the density ratio, the box (m), frames a second, the distance past ``L`` (m) of ``t_off``.
+BALL_R, DENSITY_RATIO, BOX, FPS, DELTA = 0.05, 10.0, 0.6, 120, 0.005
+#: The shapes (:func:`use`): the sphere's radius (m) and centre (m), the block it is cut from (m), the release angle
+#: and the judged one ``THETA1`` (degrees from the top), seconds run, and whether ``t_off`` is judged. The dome's
+#: sphere is cut flat 5 cm under its centre; the mound is a low cap of a 1 m sphere on a block 0.56 m square (its top
+#: 15 cm up, the cap meeting the block's sides 3 cm or more above the ground): a ball 3 degrees from its top reaches 12
+#: degrees (a 21 % slope) before the cap's edge.
+SHAPES = {"dome": dict(DOME_R=0.2, DOME_C=np.array([0.22, 0.3, 0.05]), BLOCK_LO=np.array([0.02, 0.1, 0.0]),
+                       BLOCK_HI=np.array([0.42, 0.5, 0.26]), THETA0=20.0, THETA1=40.0, RUN_T=0.45, OFF=True),
+          "mound": dict(DOME_R=1.0, DOME_C=np.array([0.2, 0.3, -0.85]), BLOCK_LO=np.array([0.02, 0.02, 0.0]),
+                        BLOCK_HI=np.array([0.58, 0.58, 0.15]), THETA0=3.0, THETA1=12.0, RUN_T=0.95, OFF=False)}
+DOME_R = DOME_C = BLOCK_LO = BLOCK_HI = THETA0 = THETA1 = RUN_T = OFF = None
+
+
+def use(shape: str) -> None:
+    """Set the module's shape constants to :data:`SHAPES`' ``shape`` ("dome" or "mound")."""
+    globals().update(SHAPES[shape])
+
+
+use("dome")
 #: Two-sided tolerance of each time.
 TOL = 0.02
 
@@ -109,7 +125,7 @@ def setup(n_grid: int, sampling: str, mu: float):
 
 
 def reference(k: float, mu: float, dt: float = 2.0e-6) -> dict:
-    """The closed form's ``t40`` and ``t_off`` (s) and the angle it leaves at (degrees), by RK4 of the equations in
+    """The closed form's ``t1`` and ``t_off`` (s) and the angle it leaves at (degrees), by RK4 of the equations in
     the module notes (``k`` the ball's ``I / (m R^2)``; mu 0: it slides, its spin never changes)."""
     L, g = DOME_R + BALL_R, rl.G
 
@@ -134,8 +150,9 @@ def reference(k: float, mu: float, dt: float = 2.0e-6) -> dict:
         s_new = s + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
         if mu > 0.0 and abs(L * s_new[1] - BALL_R * s_new[2]) < 1e-6 * L * max(s_new[1], 1e-9):
             s_new[2] = L * s_new[1] / BALL_R   # rolling: hold the constraint against round-off
-        if "t40" not in out and s_new[0] >= math.radians(THETA1):
-            out["t40"] = t + dt * (math.radians(THETA1) - s[0]) / (s_new[0] - s[0])
+        if "t1" not in out and s_new[0] >= math.radians(THETA1):
+            out["t1"] = t + dt * (math.radians(THETA1) - s[0]) / (s_new[0] - s[0])
+            out["v1"] = L * s_new[1]   # the centre's speed there
         s, t = s_new, t + dt
     out["leave_deg"] = math.degrees(s[0])
     p = L * np.array([math.sin(s[0]), math.cos(s[0])])
@@ -148,7 +165,7 @@ def reference(k: float, mu: float, dt: float = 2.0e-6) -> dict:
 
 
 def figures(engine: str, s) -> dict:
-    """``t40``, ``t_off`` (s; module notes, linear between frames, inf where never reached), ``sink`` (m) and
+    """``t1``, ``t_off`` (s; module notes, linear between frames, inf where never reached), ``sink`` (m) and
     ``dome`` (the dome's largest point speed, m/s), the ball's centre read relative to the dome's sphere's centre
     (moved with the dome's mass centre)."""
     from gasp_core.seam.build import build_engine
@@ -159,16 +176,19 @@ def figures(engine: str, s) -> dict:
     c0 = dome_centre(s.n_grid) - (md[:, None] * x0[b == 1]).sum(0) / md.sum()
     L = DOME_R + BALL_R
     e = build_engine(get_engine(engine), s)
-    th, dist, dome = [math.radians(THETA0)], [L], 0.0
+    th, dist, speed, dome = [math.radians(THETA0)], [L], [0.0], 0.0
     for _ in range(round(RUN_T * FPS)):
         e.step_frame()
         X, V = e.positions().astype(np.float64), e.velocities().astype(np.float64)
         d = (mb[:, None] * X[b == 0]).sum(0) / mb.sum() - ((md[:, None] * X[b == 1]).sum(0) / md.sum() + c0)
+        u = (mb[:, None] * V[b == 0]).sum(0) / mb.sum() - (md[:, None] * V[b == 1]).sum(0) / md.sum()
         th.append(math.atan2(d[0], d[2]))
         dist.append(float(np.linalg.norm(d[[0, 2]])))
+        speed.append(float(np.linalg.norm(u[[0, 2]])))
         dome = max(dome, float(np.abs(V[b == 1]).max()))
     e.close()
     th, dist, t = np.array(th), np.array(dist) - L, np.arange(len(th)) / FPS
+    i1 = np.flatnonzero(th >= math.radians(THETA1))
 
     def first(y, level):
         i = np.flatnonzero(y >= level)
@@ -178,24 +198,31 @@ def figures(engine: str, s) -> dict:
         return float(t[j - 1] + (t[j] - t[j - 1]) * (level - y[j - 1]) / (y[j] - y[j - 1]))
 
     before = th < math.radians(THETA1)
-    return {"t40": first(th, math.radians(THETA1)), "t_off": first(dist, DELTA),
+    v1 = math.inf
+    if len(i1) and i1[0] > 0:   # the centre's speed as it passes THETA1, linear between frames
+        j = i1[0]
+        f = (math.radians(THETA1) - th[j - 1]) / (th[j] - th[j - 1])
+        v1 = speed[j - 1] + f * (speed[j] - speed[j - 1])
+    return {"t1": first(th, math.radians(THETA1)), "t_off": first(dist, DELTA), "v1": v1,
             "sink": float(dist[before].min()), "dome": dome}
 
 
-def row(engine: str, n_grid: int, sampling: str, mu: float) -> dict:
+def row(engine: str, n_grid: int, sampling: str, mu: float, shape: str = "dome") -> dict:
+    use(shape)
     s, k = setup(n_grid, sampling, mu)
     t0 = time.time()
     fig = figures(engine, s)
     want = reference(k if mu > 0 else 0.0, mu)
-    err = {q: fig[q] / want[q] - 1.0 for q in ("t40", "t_off")}
+    err = {q: fig[q] / want[q] - 1.0 for q in (("t1", "t_off", "v1") if OFF else ("v1",))}
     bad = [f"{q} {100 * e:+.2f} %" for q, e in err.items() if not abs(e) <= TOL]
-    return {"engine": engine, "n_grid": n_grid, "sampling": sampling, "mu": mu, "k": k, **fig,
+    return {"engine": engine, "shape": shape, "n_grid": n_grid, "sampling": sampling, "mu": mu, "k": k, **fig,
             "want": want, "err": err, "problem": "; ".join(bad) or None, "wall_s": time.time() - t0}
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--engine", default="warp_mpm")
+    ap.add_argument("--shape", default="dome", help="dome (the ball leaves it) or mound (a low cap of a 1 m sphere)")
     ap.add_argument("--dome-rule", type=int, default=None,
                     help="gasp_core.mpm.rigid_support.CURVED (0: round 91's table rows on a curved face, the broken variant)")
     ap.add_argument("--only", default=None, help="n_grid,sampling,mu: one case (sampling fibonacci, scan or fill)")
@@ -209,13 +236,13 @@ def main(argv=None) -> int:
                                              float(a.only.split(",")[2]))]
     rows = []
     for case in cases:
-        rows.append(row(a.engine, *case))
+        rows.append(row(a.engine, *case, shape=a.shape))
         r = rows[-1]
-        print(f"{a.engine} n_grid {r['n_grid']} {r['sampling']} mu {r['mu']}: t40 {r['t40']:.4f} s (want "
-              f"{r['want']['t40']:.4f}, {100 * r['err']['t40']:+.2f} %), t_off {r['t_off']:.4f} s (want "
-              f"{r['want']['t_off']:.4f}, {100 * r['err']['t_off']:+.2f} %; leaves at "
-              f"{r['want']['leave_deg']:.1f} deg), sink {1e3 * r['sink']:+.2f} mm, dome {r['dome']:.4f} m/s; "
-              f"{r['problem'] or 'ok'} ({r['wall_s']:.0f} s)", flush=True)
+        w, judged = r["want"], ", ".join(f"{q} {100 * e:+.2f} %" for q, e in r["err"].items())
+        print(f"{a.engine} {a.shape} n_grid {r['n_grid']} {r['sampling']} mu {r['mu']}: t1 {r['t1']:.4f} s (want "
+              f"{w['t1']:.4f}), v1 {r['v1']:.4f} m/s (want {w['v1']:.4f}), t_off {r['t_off']:.4f} s (want "
+              f"{w['t_off']:.4f}; leaves at {w['leave_deg']:.1f} deg); judged {judged}; sink {1e3 * r['sink']:+.2f} "
+              f"mm, dome {r['dome']:.4f} m/s; {r['problem'] or 'ok'} ({r['wall_s']:.0f} s)", flush=True)
     RF.write_rows(out, rows)
     return 0
 

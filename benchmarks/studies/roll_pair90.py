@@ -42,8 +42,9 @@ def family() -> list[tuple[float, int, str]]:
                                                                       for s in RF.SAMPLINGS if s != "fibonacci"]
 
 
-def setup(shape: str, radius: float, n_grid: int, sampling: str, mu: float):
-    """``(SimSetup, k, n_render)``: body 0 the round body (its Gaussians first), body 1 the slab."""
+def setup(shape: str, radius: float, n_grid: int, sampling: str, mu: float, slab: str = "lattice"):
+    """``(SimSetup, k, n_render)``: body 0 the round body (its Gaussians first), body 1 the slab: a lattice at
+    ``dx / 2``, and with ``slab`` "scan" (round 93) Gaussians on its top face as a scanned table's (:func:`scan_top`)."""
     from gasp_core.seam.setup import Boundary, Material, SimSetup
     from gasp_core.testing.helpers import box_points
     dx = SIDE / n_grid
@@ -51,6 +52,8 @@ def setup(shape: str, radius: float, n_grid: int, sampling: str, mu: float):
     k = RF.inertia_share(x, vol, radius)
     x = x - (vol[:, None] * x).sum(0) / vol.sum() + np.array([-0.06, 0.0, 0.03 + radius])
     xs, pvs = box_points([-0.12, -0.12, 0.0], [0.20, 0.12, 0.03], dx / 2)
+    if slab == "scan":
+        xs = np.concatenate([scan_top(dx), xs])
     th = np.radians(rl.THETA)
     mats = [Material("jelly", model="rigid", E=1.0e10, nu=0.3, rho=700.0, friction=mu) for _ in range(2)]
     lo = np.array([-0.20, -SIDE / 2, -3 * dx])
@@ -60,6 +63,17 @@ def setup(shape: str, radius: float, n_grid: int, sampling: str, mu: float):
                  n_grid=n_grid, frame_dt=1.0 / FPS, boundaries=[Boundary("ground", height=0.0, friction=1.0)])
     s.n_render = n_render
     return s, k, n_render
+
+
+def scan_top(dx: float, seed: int = 1) -> np.ndarray:
+    """Round 93: Gaussians on the slab's top face (z 0.03 m) as a scan leaves them (m): a grid of ``dx / 4``, each
+    moved at random by up to half its spacing across the face and a quarter along its normal."""
+    rng = np.random.default_rng(seed)
+    sp = dx / 4
+    g = np.stack(np.meshgrid(np.arange(-0.12 + sp / 2, 0.20, sp), np.arange(-0.12 + sp / 2, 0.12, sp),
+                             indexing="ij"), axis=-1).reshape(-1, 2)
+    g = np.clip(g + rng.uniform(-sp / 2, sp / 2, g.shape), [-0.12, -0.12], [0.20, 0.12])
+    return np.c_[g, 0.03 + rng.uniform(-sp / 4, sp / 4, len(g))]
 
 
 def figures(engine: str, s, radius: float) -> dict:
@@ -95,12 +109,12 @@ def figures(engine: str, s, radius: float) -> dict:
             "v": float(vs[-1][0]), "slab": slab, "sink": float(c[0, 2] - c[:, 2].min())}
 
 
-def row(engine: str, shape: str, radius: float, n_grid: int, sampling: str, mu: float) -> dict:
-    s, k, n_render = setup(shape, radius, n_grid, sampling, mu)
+def row(engine: str, shape: str, radius: float, n_grid: int, sampling: str, mu: float, slab: str = "lattice") -> dict:
+    s, k, n_render = setup(shape, radius, n_grid, sampling, mu, slab)
     t0 = time.time()
     fig = figures(engine, s, radius)
     return {**RF.record(engine, shape, radius, n_grid, sampling, n_render, mu, k, fig, time.time() - t0),
-            "slab": fig["slab"], "sink": fig["sink"]}
+            "slab": fig["slab"], "sink": fig["sink"], "slab_sampling": slab}
 
 
 def main(argv=None) -> int:
@@ -111,6 +125,7 @@ def main(argv=None) -> int:
                                                                  "tables and midway plane, the broken variant)")
     ap.add_argument("--round-normal", type=int, default=1, help="gasp_core.mpm.rigid_pairs.ROUND_NORMAL (0: the "
                                                                    "nodes' normal, round 90's, the broken variant)")
+    ap.add_argument("--slab", default="lattice", help="lattice, or scan (round 93: Gaussians on its top face)")
     ap.add_argument("--out", default=None, help="a new JSON file for the rows (refused if it exists)")
     a = ap.parse_args(argv)
     import gasp_core.mpm.rigid_pairs as rp
@@ -121,7 +136,7 @@ def main(argv=None) -> int:
     for shape in a.shapes.split(","):
         for radius, n_grid, sampling in family():
             for mu in RF.MUS:
-                rows.append(row(a.engine, shape, radius, n_grid, sampling, mu))
+                rows.append(row(a.engine, shape, radius, n_grid, sampling, mu, a.slab))
                 print(RF.report(rows[-1]), f"(slab {rows[-1]['slab']:.4f} m/s, sink {rows[-1]['sink'] * 1e3:.2f} mm)",
                       flush=True)
     RF.write_rows(out, rows)

@@ -29,11 +29,14 @@ from .rigid_friction import FLAT_FROM, FLAT_TO
 #: concave part) reads as deep inside it, while a real contact, found by the touching nodes, is within a fraction of a
 #: cell (a resting 10 cm ball 0.2 mm). Deeper, the nodes' normal stands.
 ROUND_DEEP = 0.25
-#: Round 93 (``docs/rigid.md`` "Round 93: a ball over a dome"): 1: where the other body's table reads its surface
-#: curved at the separating axis's row (:func:`curved_rows`), a round body's normal is the plane fit to that body's
-#: outer points nearest it (:func:`hollow_normal`, as in a hollow) and the pair's gap is not known; 0: the row (round
-#: 91's, the broken variant: a table's rows are about 12 degrees apart, and on a curved face the nearest one stood).
+#: Round 93 (``docs/rigid.md`` "Round 93: a ball over a dome"): 1: where the other body is not a plane at the
+#: separating axis's row (:func:`curved_rows`), a round body's normal is the plane fit to that body's outer points
+#: nearest it (:func:`hollow_normal`, as in a hollow) and the pair's gap is not known; 0: the row (round 91's, the
+#: broken variant: a table's rows are about 12 degrees apart, and on a curved face the nearest one stood).
 CURVED = 1
+#: Round 93: the band's curvature times the support (dimensionless) under which a row is an exact plane's (a lattice's
+#: face reads about 1e-16, round-off; :func:`curved_rows`).
+FACE_ROUNDOFF = 1.0e-9
 #: The number of Fibonacci directions of a table (the rest-frame axes and the body's principal axes are added).
 N_DIRS = 256
 #: The band's depth in point spacings: the fit's points (a lattice ball of radius 3-9 spacings read round along
@@ -171,10 +174,12 @@ def contact_plane(table_a, R_a, c_a, table_b, R_b, c_b, n, round_a: bool = False
 
 
 def curved_rows(h, curv) -> np.ndarray:
-    """Round 93: per table row, 1.0 where the body's surface there reads curved rather than a face, the pair law's own
-    face test (:func:`flatness` under 1: a radius of curvature under ``FLAT_TO`` times the support) on the curvature
-    tensor's Frobenius norm (1/m; at least its largest principal curvature), else 0.0; all 0.0 when :data:`CURVED`
-    is 0 or there is no curvature (``curv`` None).
+    """Round 93: per table row, 1.0 where the body is not an exact plane there, else 0.0: the band's curvature tensor
+    (:func:`band_curvature`, 1/m) times the support (m) over :data:`FACE_ROUNDOFF` in its Frobenius norm. A lattice's
+    face reads 1e-16 and keeps its row, its exact normal; a dome, a mound of 5 m radius (0.09 1/m) or a scan's jittered
+    face (0.06 1/m) reads curved and takes the plane fit to its outer points (:func:`round_normal`), since the nearest
+    of rows 12 degrees apart is up to 6 degrees off a curved surface's normal however gentle. All 0.0 when
+    :data:`CURVED` is 0 or there is no curvature (``curv`` None).
 
     Parameters
     ----------
@@ -193,7 +198,7 @@ def curved_rows(h, curv) -> np.ndarray:
     K = np.asarray(curv, np.float64)
     if K.ndim == 2:
         K = K[:, [0, 1, 2, 1, 3, 4, 2, 4, 5]].reshape(-1, 3, 3)
-    return (np.sqrt((K * K).sum(axis=(1, 2))) * h * FLAT_TO > 1.0).astype(np.float64)
+    return (np.sqrt((K * K).sum(axis=(1, 2))) * np.abs(h) > FACE_ROUNDOFF).astype(np.float64)
 
 
 def round_normal(table_f, R_f, c_f, table_r, R_r, c_r, n, cos_cone: float, outer=None) -> np.ndarray:
