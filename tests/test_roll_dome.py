@@ -12,6 +12,7 @@ normal is now round 92's plane fit to the body's outer points nearest the ball.
   the time to be 5 mm clear of the dome each within :data:`TOL` of the closed form (``roll_dome93.reference``),
   two-sided; and on a mound (a low cap of a 1 m sphere, its slope 5-21 % along the path) the time from 3 to 12
   degrees.
+- **The default tier** runs the dome at n_grid 24 on warp_mpm.
 - **The catch**: the table's rows (``rigid_support.CURVED`` 0) fail both, on both engines.
 - **NumPy**: the dome's and the mound's rows and a scanned face read curved, a lattice's faces flat; the normal along
   the ball's path is radial within 0.2 degrees with the rule and 3 degrees or more off without it; the gap is not
@@ -52,11 +53,12 @@ def test_the_reference_leaves_where_the_closed_forms_say():
     assert RD.reference(0.4, 0.5)["t1"] > RD.reference(0.0, 0.0)["t1"]   # rolling is slower
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("engine", [pytest.param("warp_mpm"), pytest.param("taichi_mpm", marks=pytest.mark.slow)])
 def test_a_ball_leaves_a_rigid_dome_where_newton_says(engine):
+    """n_grid 24 (warp_mpm about 10 s, the default tier): -0.72 % to 40 degrees, +0.28 % to leave (the rows: -2.56
+    and -10.88 %)."""
     pytest.importorskip(f"gasp_{engine}")
-    r = RD.row(engine, 32, "fibonacci", 0.5)
+    r = RD.row(engine, 24, "fibonacci", 0.5)
     assert problem(r) is None, f"{engine}: {problem(r)}"
 
 

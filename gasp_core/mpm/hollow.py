@@ -27,14 +27,14 @@ degrees. The gap stays the hull's (deep: no approach allowed, as before). The en
 the cells (:func:`cell_index`, :data:`CELL` spacings) within the round body's radius and
 ``rigid_support.HOLLOW_REACH`` spacings of its centre or axis, a few hundred, once a concave pair and substep.
 
-:func:`hollow_normal` (in :mod:`gasp_core.mpm.rigid_support`, re-exported here) is the NumPy reference both engines
+:func:`hollow_normal` (in :mod:`gasp_core.mpm.rigid_fit`, re-exported here and by ``rigid_support``) is the NumPy reference both engines
 follow; docs/rigid.md "Round 92" names their functions.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from gasp_core.mpm.rigid_support import HOLLOW_POWER_STEPS, HOLLOW_WINDOW, hollow_normal  # noqa: F401 (re-exported)
+from gasp_core.mpm.rigid_fit import HOLLOW_POWER_STEPS, HOLLOW_WINDOW, hollow_normal  # noqa: F401 (re-exported)
 
 #: 1: the rule above; 0: the touching nodes' normal in a concave part (round 91's, the broken variant).
 HOLLOW = 1
