@@ -66,11 +66,7 @@ def hollow_block(s: float, hollow: str, shape: str = "ball") -> np.ndarray:
         return np.concatenate([trough_gaussians(hollow), x])
     n = int(round(rl.N_SHELL * (rc.BOWL_R / 0.1) ** 2))
     if hollow == "scan":
-        rng = np.random.default_rng(1)
-        u = rng.normal(size=(n, 3))
-        u /= np.linalg.norm(u, axis=1)[:, None]
-        sp = math.sqrt(4.0 * math.pi / n) * rc.BOWL_R
-        shell = rc.BOWL_C + u * (rc.BOWL_R + rng.uniform(-sp / 4, sp / 4, n))[:, None]
+        shell = RF.scan_sphere(rc.BOWL_C, rc.BOWL_R, n, seed=1)
     else:
         shell = rc.BOWL_C + rc.BOWL_R * rl.fibonacci_sphere(n)
     inside = np.all((shell > BLOCK_LO) & (shell < BLOCK_HI), axis=1)

@@ -86,11 +86,7 @@ def dome_points(s: float, sampling: str) -> np.ndarray:
         return x
     n = int(round(rl.N_SHELL * (DOME_R / 0.1) ** 2))
     if sampling == "scan":
-        rng = np.random.default_rng(1)
-        u = rng.normal(size=(n, 3))
-        u /= np.linalg.norm(u, axis=1)[:, None]
-        sp = math.sqrt(4.0 * math.pi / n) * DOME_R
-        shell = DOME_C + u * (DOME_R + rng.uniform(-sp / 4, sp / 4, n))[:, None]
+        shell = RF.scan_sphere(DOME_C, DOME_R, n, seed=1)
     else:
         shell = DOME_C + DOME_R * rl.fibonacci_sphere(n)
     inside = np.all((shell > BLOCK_LO) & (shell < BLOCK_HI), axis=1)

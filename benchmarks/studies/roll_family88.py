@@ -109,14 +109,20 @@ def ball(radius: float, n_grid: int, sampling: str, seed: int = 0) -> tuple[np.n
     if sampling == "sparse":
         n //= 16
     if sampling == "scan":
-        rng = np.random.default_rng(seed)
-        u = rng.normal(size=(n, 3))
-        u /= np.linalg.norm(u, axis=1)[:, None]
-        s = math.sqrt(4.0 * math.pi / n) * radius
-        shell = c + u * (radius + rng.uniform(-s / 4, s / 4, n))[:, None]
+        shell = scan_sphere(c, radius, n, seed)
     else:
         shell = c + radius * rl.fibonacci_sphere(n)
     return _share(x, shell, c, volume, 0.4 * volume * radius * radius)
+
+
+def scan_sphere(c, radius: float, n: int, seed: int = 0) -> np.ndarray:
+    """``n`` points (m) on the sphere of ``radius`` about ``c`` as a scan leaves them: at random (seeded), each
+    jittered along its normal by up to a quarter of their mean spacing (the "scan" sampling)."""
+    rng = np.random.default_rng(seed)
+    u = rng.normal(size=(n, 3))
+    u /= np.linalg.norm(u, axis=1)[:, None]
+    s = math.sqrt(4.0 * math.pi / n) * radius
+    return np.asarray(c) + u * (radius + rng.uniform(-s / 4, s / 4, n))[:, None]
 
 
 def inertia_share(x: np.ndarray, p_vol: np.ndarray, radius: float) -> float:
