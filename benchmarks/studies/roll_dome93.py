@@ -25,6 +25,9 @@ reported. ``--shape mound``: a low cap of a 1 m sphere, the ball from 3 to 12 de
 the top the slope is 3 degrees, so a scan's sampling noise in the normal there (0.4-0.6 degrees rms) moves the start
 and every time after it (``t1`` is reported), while the speed at 12 degrees is the energy's, whatever the start.
 
+``--body cylinder``: ``roll_family88``'s solid cylinder (R 5 cm, 15 cm long) lying across the path instead; on a
+sphere it touches at its middle, so the closed form is the same with its ``k`` (a disc on a circle).
+
 ``python benchmarks/studies/roll_dome93.py --engine warp_mpm --out benchmarks/results/roll_dome93_warp.json``
 (refused if the file exists); ``--dome-rule 0``: round 91's table rows on the dome (the broken variant).
 """
@@ -99,11 +102,13 @@ def dome_centre(n_grid: int) -> np.ndarray:
     return DOME_C + np.array([0.0, 0.0, BOX / n_grid / 4])
 
 
-def setup(n_grid: int, sampling: str, mu: float):
-    """``(SimSetup, k)``: body 0 the ball (its Gaussians first), body 1 the dome (:func:`dome_points`)."""
+def setup(n_grid: int, sampling: str, mu: float, body: str = "ball"):
+    """``(SimSetup, k)``: body 0 the ball (its Gaussians first; ``body`` "cylinder": ``roll_family88``'s solid
+    cylinder of the same radius, 15 cm long, its axis along y, across the path), body 1 the dome
+    (:func:`dome_points`)."""
     from gasp_core.seam.setup import Boundary, Material, SimSetup
     dx = BOX / n_grid
-    x, vol, n_render = RF.ball(BALL_R, n_grid, sampling)
+    x, vol, n_render = RF.body(body, BALL_R, n_grid, sampling)
     k = RF.inertia_share(x, vol, BALL_R)
     t0 = math.radians(THETA0)
     centre = dome_centre(n_grid) + (DOME_R + BALL_R) * np.array([math.sin(t0), 0.0, math.cos(t0)])
@@ -203,15 +208,15 @@ def figures(engine: str, s) -> dict:
             "sink": float(dist[before].min()), "dome": dome}
 
 
-def row(engine: str, n_grid: int, sampling: str, mu: float, shape: str = "dome") -> dict:
+def row(engine: str, n_grid: int, sampling: str, mu: float, shape: str = "dome", body: str = "ball") -> dict:
     use(shape)
-    s, k = setup(n_grid, sampling, mu)
+    s, k = setup(n_grid, sampling, mu, body)
     t0 = time.time()
     fig = figures(engine, s)
     want = reference(k if mu > 0 else 0.0, mu)
     err = {q: fig[q] / want[q] - 1.0 for q in (("t1", "t_off", "v1") if OFF else ("v1",))}
     bad = [f"{q} {100 * e:+.2f} %" for q, e in err.items() if not abs(e) <= TOL]
-    return {"engine": engine, "shape": shape, "n_grid": n_grid, "sampling": sampling, "mu": mu, "k": k, **fig,
+    return {"engine": engine, "shape": shape, "body": body, "n_grid": n_grid, "sampling": sampling, "mu": mu, "k": k, **fig,
             "want": want, "err": err, "problem": "; ".join(bad) or None, "wall_s": time.time() - t0}
 
 
@@ -219,6 +224,8 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--engine", default="warp_mpm")
     ap.add_argument("--shape", default="dome", help="dome (the ball leaves it) or mound (a low cap of a 1 m sphere)")
+    ap.add_argument("--body", default="ball", help="ball, or cylinder (a solid one across the path: the same closed "
+                                                   "form with its k, as a disc on a circle)")
     ap.add_argument("--dome-rule", type=int, default=None,
                     help="gasp_core.mpm.rigid_support.CURVED (0: round 91's table rows on a curved face, the broken variant)")
     ap.add_argument("--only", default=None, help="n_grid,sampling,mu: one case (sampling fibonacci, scan or fill)")
@@ -232,10 +239,10 @@ def main(argv=None) -> int:
                                              float(a.only.split(",")[2]))]
     rows = []
     for case in cases:
-        rows.append(row(a.engine, *case, shape=a.shape))
+        rows.append(row(a.engine, *case, shape=a.shape, body=a.body))
         r = rows[-1]
         w, judged = r["want"], ", ".join(f"{q} {100 * e:+.2f} %" for q, e in r["err"].items())
-        print(f"{a.engine} {a.shape} n_grid {r['n_grid']} {r['sampling']} mu {r['mu']}: t1 {r['t1']:.4f} s (want "
+        print(f"{a.engine} {a.body} on the {a.shape} n_grid {r['n_grid']} {r['sampling']} mu {r['mu']}: t1 {r['t1']:.4f} s (want "
               f"{w['t1']:.4f}), v1 {r['v1']:.4f} m/s (want {w['v1']:.4f}), t_off {r['t_off']:.4f} s (want "
               f"{w['t_off']:.4f}; leaves at {w['leave_deg']:.1f} deg); judged {judged}; sink {1e3 * r['sink']:+.2f} "
               f"mm, dome {r['dome']:.4f} m/s; {r['problem'] or 'ok'} ({r['wall_s']:.0f} s)", flush=True)
