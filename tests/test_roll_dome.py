@@ -84,6 +84,18 @@ def test_a_cylinder_rolls_over_a_rigid_dome_or_mound(engine, shape):
 
 
 @pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="round 93, not met: the scan-like cylinder rolling (mu 0.5) over the mound at "
+                                       "n_grid 32 tips sideways (its axis dips 20 degrees by 12 degrees of travel, its "
+                                       "centre 3.3 mm towards the sphere's) and arrives 15.0 % slow (warp_mpm); the "
+                                       "same at n_grid 48 -1.22 %, sliding (mu 0) -0.56 %, the Fibonacci one -0.54 %. "
+                                       "Not traced (docs/rigid.md 'Round 93')")
+def test_a_scan_like_cylinder_rolls_over_the_mound():
+    pytest.importorskip("gasp_warp_mpm")
+    r = RD.row("warp_mpm", 32, "scan", 0.5, shape="mound", body="cylinder")
+    assert problem(r) is None, problem(r)
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize("shape", ("dome", "mound"))
 @pytest.mark.parametrize("engine", ENGINES)
 def test_the_dome_check_catches_the_tables_rows(engine, shape, monkeypatch):
