@@ -125,7 +125,7 @@ def setup(n_grid: int, sampling: str, mu: float, body: str = "ball"):
     return s, k
 
 
-def reference(k: float, mu: float, dt: float = 2.0e-6) -> dict:
+def reference(k: float, mu: float, dt: float = 1.0e-5) -> dict:
     """The closed form's ``t1`` and ``t_off`` (s) and the angle it leaves at (degrees), by RK4 of the equations in
     the module notes (``k`` the ball's ``I / (m R^2)``; mu 0: it slides, its spin never changes)."""
     L, g = DOME_R + BALL_R, rl.G
@@ -152,8 +152,9 @@ def reference(k: float, mu: float, dt: float = 2.0e-6) -> dict:
         if mu > 0.0 and abs(L * s_new[1] - BALL_R * s_new[2]) < 1e-6 * L * max(s_new[1], 1e-9):
             s_new[2] = L * s_new[1] / BALL_R   # rolling: hold the constraint against round-off
         if "t1" not in out and s_new[0] >= math.radians(THETA1):
-            out["t1"] = t + dt * (math.radians(THETA1) - s[0]) / (s_new[0] - s[0])
-            out["v1"] = L * s_new[1]   # the centre's speed there
+            f = (math.radians(THETA1) - s[0]) / (s_new[0] - s[0])
+            out["t1"] = t + dt * f
+            out["v1"] = L * (s[1] + f * (s_new[1] - s[1]))   # the centre's speed there
         s, t = s_new, t + dt
     out["leave_deg"] = math.degrees(s[0])
     p = L * np.array([math.sin(s[0]), math.cos(s[0])])
