@@ -201,6 +201,11 @@ def curved_rows(h, curv) -> np.ndarray:
     return (np.sqrt((K * K).sum(axis=(1, 2))) * np.abs(h) > FACE_ROUNDOFF).astype(np.float64)
 
 
+def _curved_at(table, i: int) -> bool:
+    """:func:`curved_rows` of row ``i`` of a table (False for a table without curvatures)."""
+    return len(table) > 2 and bool(curved_rows(table[1][i:i + 1], table[2][i:i + 1])[0])
+
+
 def round_normal(table_f, R_f, c_f, table_r, R_r, c_r, n, cos_cone: float, outer=None) -> np.ndarray:
     """Round 91: the normal of a round body's contact with a body that is not round, from their supports (the
     separating axis), not from the touching nodes (``docs/rigid.md`` "Round 91: the normal of a round body's contact").
@@ -256,7 +261,7 @@ def round_normal(table_f, R_f, c_f, table_r, R_r, c_r, n, cos_cone: float, outer
             return n
         return hollow_normal(outer[0], outer[1], R_f, c_f, c_r, n, *outer[2:])
     i = inside[k]
-    if outer is not None and len(table_f) > 2 and curved_rows(table_f[1][i:i + 1], table_f[2][i:i + 1])[0]:
+    if outer is not None and _curved_at(table_f, i):
         return hollow_normal(outer[0], outer[1], R_f, c_f, c_r, E[i], *outer[2:])
     return E[i].copy()
 
@@ -319,10 +324,8 @@ def pair_gap(table_a, R_a, c_a, kind_a: float, table_b, R_b, c_b, kind_b: float,
         return -1.0e30
     n = np.asarray(n, np.float64)
     for table, R, kind, d in ((table_a, R_a, kind_a, n), (table_b, R_b, kind_b, -n)):
-        if kind == 0.0 and len(table) > 2:
-            i = _row(table, R, d)
-            if curved_rows(table[1][i:i + 1], table[2][i:i + 1])[0]:
-                return -1.0e30
+        if kind == 0.0 and _curved_at(table, _row(table, R, d)):
+            return -1.0e30
     return (float(n @ (np.asarray(c_b, np.float64) - np.asarray(c_a, np.float64))) - support(table_a, R_a, n)
             - support(table_b, R_b, -n))
 

@@ -272,6 +272,27 @@ def round_normal(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), rnd
 
 
 @wp.func
+def pair_gap(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), rnd: wp.array(dtype=wp.float64), nd: int,
+             cos_cone: wp.float64, a: int, b: int, RA: mat33d, RB: mat33d, cA: vec3d, cB: vec3d, n: vec3d,
+             hol: Hollow):
+    # round 91 (gasp_core.mpm.rigid_support.pair_gap): two spheres, or a sphere and a body that is not round, the gap
+    # between the two supports along n (m, < 0 overlapping); else -1e30 (none known: the law as before, every approach
+    # of touching nodes removed); round 93: none known where the body that is not round reads curved at its row
+    g = wp.float64(-1.0e30)
+    ka = rnd[a]
+    kb = rnd[b]
+    one = (ka == wp.float64(1.0) and kb == wp.float64(0.0)) or (ka == wp.float64(0.0) and kb == wp.float64(1.0))
+    if cos_cone <= wp.float64(1.0) and nd > 0 and ((ka == wp.float64(1.0) and kb == wp.float64(1.0)) or one):
+        row_a = body_row(dirs, nd, a, RA, n)
+        row_b = body_row(dirs, nd, b, RB, -n)
+        curved = (ka == wp.float64(0.0) and hol.curved[row_a] > wp.float64(0.0)) or (
+            kb == wp.float64(0.0) and hol.curved[row_b] > wp.float64(0.0))
+        if not curved:
+            g = wp.dot(n, cB - cA) - h[row_a] - h[row_b]
+    return g
+
+
+@wp.func
 def allowed_approach(gap: wp.float64, un: wp.float64, dt: wp.float64):
     # round 91's speculative contact (gasp_core.mpm.rigid_friction.allowed_approach): the approach speed the pair may
     # keep this substep so that it closes the gap its centres had at the step's start, max(gap / dt + un, 0); 0 where
@@ -301,24 +322,3 @@ def slip_at(x_c: vec3d, VA: vec3d, wA: vec3d, cA: vec3d, VB: vec3d, wB: vec3d, c
     rB = x_c - cB
     u = VA + wp.cross(wA, rA) - VB - wp.cross(wB, rB)
     return rA, rB, u - wp.dot(u, n) * n
-
-
-@wp.func
-def pair_gap(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), rnd: wp.array(dtype=wp.float64), nd: int,
-             cos_cone: wp.float64, a: int, b: int, RA: mat33d, RB: mat33d, cA: vec3d, cB: vec3d, n: vec3d,
-             hol: Hollow):
-    # round 91 (gasp_core.mpm.rigid_support.pair_gap): two spheres, or a sphere and a body that is not round, the gap
-    # between the two supports along n (m, < 0 overlapping); else -1e30 (none known: the law as before, every approach
-    # of touching nodes removed); round 93: none known where the body that is not round reads curved at its row
-    g = wp.float64(-1.0e30)
-    ka = rnd[a]
-    kb = rnd[b]
-    one = (ka == wp.float64(1.0) and kb == wp.float64(0.0)) or (ka == wp.float64(0.0) and kb == wp.float64(1.0))
-    if cos_cone <= wp.float64(1.0) and nd > 0 and ((ka == wp.float64(1.0) and kb == wp.float64(1.0)) or one):
-        row_a = body_row(dirs, nd, a, RA, n)
-        row_b = body_row(dirs, nd, b, RB, -n)
-        curved = (ka == wp.float64(0.0) and hol.curved[row_a] > wp.float64(0.0)) or (
-            kb == wp.float64(0.0) and hol.curved[row_b] > wp.float64(0.0))
-        if not curved:
-            g = wp.dot(n, cB - cA) - h[row_a] - h[row_b]
-    return g
