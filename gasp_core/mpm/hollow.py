@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from gasp_core.mpm import rigid_fit
 from gasp_core.mpm.rigid_fit import HOLLOW_POWER_STEPS, HOLLOW_WINDOW, hollow_normal  # noqa: F401 (re-exported)
 
 #: 1: the rule above; 0: the touching nodes' normal in a concave part (round 91's, the broken variant).
@@ -88,7 +89,9 @@ def hollow_data(setup, rnd) -> dict:
     - ``"spacing"`` (n_bodies,) m: each body's point spacing;
     - ``"radius"``, ``"half"`` (n_bodies,) m and ``"axis"`` (n_bodies, 3): each round body's radius, and a
       cylinder's half-length and unit axis in its rest frame (``round_ground.ground_shapes``; zeros: a sphere's
-      axis, and the others).
+      axis, and the others);
+    - ``"side"`` (n_bodies,): round 94, 1.0 for a cylinder where :data:`gasp_core.mpm.rigid_fit.CYL_SIDE` is on (its
+      side's normal across its axis and its foot, ``rigid_fit.hollow_contact``), else 0.
 
     A body has outer points when it is rigid and not round (``rnd`` 0, :func:`gasp_core.mpm.rigid_pairs.
     support_data`'s round column) and a rigid round body (``rnd`` 1 or 2) shares the scene; none otherwise, and none
@@ -123,7 +126,7 @@ def hollow_data(setup, rnd) -> dict:
             "cstart": np.r_[0, np.cumsum(counts)].astype(np.int32), "corg": corg, "csize": csize,
             "cdims": np.asarray(cdims, np.int32), "spacing": spacing,
             "radius": np.where(round_, shapes[:, 0], 0.0), "half": np.where(cyl, shapes[:, 1], 0.0),
-            "axis": np.where(cyl[:, None], shapes[:, 2:5], 0.0)}
+            "axis": np.where(cyl[:, None], shapes[:, 2:5], 0.0), "side": np.where(cyl, float(rigid_fit.CYL_SIDE), 0.0)}
 
 
 def body_points(data: dict, b: int) -> np.ndarray:

@@ -16,10 +16,27 @@ HOLLOW_WINDOW = 2.0
 HOLLOW_REACH = 3.0
 #: Round 92: power steps of the fit's least-spread direction (the eigenvalues' ratio is about 1/2 on a surface patch).
 HOLLOW_POWER_STEPS = 24
+#: Round 94 (``docs/rigid.md`` "Round 94: a cylinder's foot"): 1: where a solid cylinder's side touches a fitted
+#: surface, its normal is taken across its axis and the pair's normal impulse acts at its foot (:func:`side_foot`),
+#: with that point's moment about the axis's middle; 0: the fit's normal as it is, pushed through the centres (round
+#: 92-93's, the broken variant: a cylinder across a 1 m mound tipped sideways and arrived 15 % slow).
+CYL_SIDE = 1
+#: Round 94: :func:`side_foot`'s band, in the other body's point spacings: the cylinder's line bears where its gap is
+#: within it of the least (0.1 spacings, ``RIGID_SLOP dx`` for the fill's spacing ``dx / 2``, as a cylinder's line
+#: on a plane is level while its ends are within that slop, ``round_ground.level_band``).
+FOOT_BAND = 0.1
+#: Round 94: the points along the cylinder's segment at which :func:`side_foot` reads the gap.
+FOOT_SAMPLES = 16
 
 
 def hollow_normal(X_f, s_f: float, R_f, c_f, c_r, n, axis=(0.0, 0.0, 0.0), half: float = 0.0,
                   radius: float = np.inf) -> np.ndarray:
+    """:func:`hollow_contact`'s normal (same parameters)."""
+    return hollow_contact(X_f, s_f, R_f, c_f, c_r, n, axis, half, radius)[0]
+
+
+def hollow_contact(X_f, s_f: float, R_f, c_f, c_r, n, axis=(0.0, 0.0, 0.0), half: float = 0.0,
+                   radius: float = np.inf) -> tuple[np.ndarray, float]:
     """Round 92: the unit normal out of body ``f`` towards a sphere's centre ``c_r`` (m), or a cylinder's axis, the
     plane fitted to ``f``'s outer points nearest it (:mod:`gasp_core.mpm.hollow`'s notes: within ``d_min +
     HOLLOW_WINDOW s_f``, weighted, the least spread by power steps from ``n``, turned towards ``c_r``), of the points
@@ -47,12 +64,15 @@ def hollow_normal(X_f, s_f: float, R_f, c_f, c_r, n, axis=(0.0, 0.0, 0.0), half:
 
     Returns
     -------
-    ndarray, shape (3,)
-        The unit normal out of ``f``; ``n`` where ``f`` has no outer points within the reach.
+    (ndarray, shape (3,), float)
+        The unit normal out of ``f`` (``n`` where ``f`` has no outer points within the reach) and, round 94
+        (:data:`CYL_SIDE`), where a cylinder's side touches (the patch's weighted centre along its segment,
+        ``|y . axis| < half``) its foot (:func:`side_foot`, m along ``axis`` from ``c_r``), its normal then taken
+        across the axis (a side's normal is, whatever it touches); 0.0 otherwise.
     """
     X_f = np.asarray(X_f, np.float64)
     if not len(X_f) or not s_f > 0.0:
-        return np.asarray(n, np.float64)
+        return np.asarray(n, np.float64), 0.0
     R_f = np.asarray(R_f, np.float64)
     q = R_f.T @ (np.asarray(c_r, np.float64) - np.asarray(c_f, np.float64))
     Y = X_f - q
@@ -60,7 +80,7 @@ def hollow_normal(X_f, s_f: float, R_f, c_f, c_r, n, axis=(0.0, 0.0, 0.0), half:
     d = np.linalg.norm(Y - np.clip(Y @ e, -half, half)[:, None] * e[None, :], axis=1)
     near = d <= radius + HOLLOW_REACH * s_f
     if not near.any():
-        return np.asarray(n, np.float64)
+        return np.asarray(n, np.float64), 0.0
     Y, d = Y[near], d[near]
     w = np.clip(1.0 - (d - d.min()) / (HOLLOW_WINDOW * s_f), 0.0, None) ** 2
     y = (w[:, None] * Y).sum(0) / w.sum()
@@ -72,4 +92,49 @@ def hollow_normal(X_f, s_f: float, R_f, c_f, c_r, n, axis=(0.0, 0.0, 0.0), half:
         m = m / np.linalg.norm(m)
     if m @ y > 0.0:   # towards the sphere's centre, away from the points' mean
         m = -m
-    return R_f @ m
+    foot = 0.0
+    if CYL_SIDE and half > 0.0 and abs(float(y @ e)) < half:   # round 94: a cylinder's side
+        m = m - (m @ e) * e
+        m = m / np.linalg.norm(m)
+        foot = side_foot(Y, w, m, e, half, FOOT_BAND * s_f)
+    return R_f @ m, foot
+
+
+def side_foot(Y, w, m, e, half: float, band: float) -> float:
+    """Round 94: where along a solid cylinder's segment its side bears on a fitted surface (m from its centre along
+    ``e``). The patch's heights along the normal ``m`` are fitted, weighted, by a parabola in the axial coordinate
+    ``t = Y . e`` (least squares); the gap from the side to it along the segment ``|t| <= half`` is read at
+    :data:`FOOT_SAMPLES` points, and the foot is the mean of ``t`` weighted by ``max(band - (gap - least gap), 0)``:
+    on a convex surface the parabola's vertex (the foot of the normal from the surface's centre of curvature, so that
+    a tilted cylinder's load moves to its lower side as a board's on a log does), on a surface level with the axis
+    the segment's middle (a line contact's resultant), and on one tilted along it the lower end.
+
+    Parameters
+    ----------
+    Y : array_like, shape (k, 3)
+        The patch's points from the cylinder's centre, m (the other body's frame).
+    w : array_like, shape (k,)
+        Their weights (:func:`hollow_contact`'s).
+    m, e : array_like, shape (3,)
+        The unit normal (towards the cylinder, across its axis) and the cylinder's unit axis, that frame.
+    half, band : float
+        The cylinder's half-length and the band (m).
+
+    Returns
+    -------
+    float
+        The foot, m along ``e`` from the centre, within ``[-half, half]``; 0.0 where the patch does not span enough
+        of the axis to fit a parabola.
+    """
+    Y, w = np.asarray(Y, np.float64), np.asarray(w, np.float64)
+    tau = (Y @ e) / half
+    z = Y @ m
+    V = np.vander(tau, 3, increasing=True)   # 1, tau, tau^2
+    A = (V * w[:, None]).T @ V / w.sum()
+    if not np.linalg.det(A) > 1e-9:
+        return 0.0
+    a0, a1, a2 = np.linalg.solve(A, (V * w[:, None]).T @ z / w.sum())
+    tk = -1.0 + (np.arange(FOOT_SAMPLES) + 0.5) * 2.0 / FOOT_SAMPLES
+    gap = tk * half * float(m @ e) - (a1 * tk + a2 * tk * tk)   # the side's height less the surface's, less a constant
+    p = np.clip(band - (gap - gap.min()), 0.0, None)
+    return float(half * (p * tk).sum() / p.sum())

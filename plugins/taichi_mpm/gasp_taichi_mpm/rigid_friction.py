@@ -79,8 +79,10 @@ class RigidFriction:
         body's table direction within the cone (``sup_cone``, its cosine) of the nodes' ``n`` that leaves the two
         supports farthest apart (the separating axis, ``rigid_support.round_normal``); ``n`` otherwise, with the
         switch off, or where no direction lies in the cone; round 92: too deep in the hull (a hollow), and round 93:
-        where the row reads the body curved (``sup_curved``), the plane fit to its outer points (``hollow_normal``)."""
+        where the row reads the body curved (``sup_curved``), the plane fit to its outer points (``hollow_normal``);
+        round 94: with it, a cylinder's foot on the fit (0 otherwise)."""
         out = n
+        foot = ti.cast(0.0, ti.f64)
         if self.sup_cone <= 1.0 and self.sup_round[a] == 1.0 and self.sup_round[b] == 1.0:
             out = (self.rb_c[b] - self.rb_c[a]).normalized()
         elif self.sup_nd > 0 and (self.sup_round[a] > 0.0) != (self.sup_round[b] > 0.0):
@@ -106,10 +108,12 @@ class RigidFriction:
             if top < -ROUND_DEEP * hr:   # deeper in the other body's hull than a contact can be: concave, the nodes'
                 out = n
                 if self.sup_cone <= 1.0 and top > -1.0e29:   # round 92: in a hollow, from f's outer points
-                    out = sg * self.hollow_normal(f, r, fn)
+                    fit, foot = self.hollow_normal(f, r, fn)
+                    out = sg * fit
             elif top > -1.0e29 and self.sup_curved[best] > 0.0:   # round 93: a curved face, the fit from its row
-                out = sg * self.hollow_normal(f, r, sg * out)
-        return out
+                fit, foot = self.hollow_normal(f, r, sg * out)
+                out = sg * fit
+        return out, foot
 
     @ti.func
     def pair_gap(self, a, b, n):
@@ -272,18 +276,25 @@ class RigidFriction:
             W = self.pair_acc[0]
             n = ti.Vector([self.pair_acc[4], self.pair_acc[5], self.pair_acc[6]])
             if W > 0.0 and n.norm() > 0.0:
-                n = self.round_normal(a, b, n / n.norm())   # round 91: one round body, from the supports
+                n, foot = self.round_normal(a, b, n / n.norm())   # round 91: one round body, from the supports
                 x_c = ti.Vector([self.pair_acc[1], self.pair_acc[2], self.pair_acc[3]]) / W
                 MA, MB = self.rb_M[a], self.rb_M[b]
                 VA, VB, wA, wB = self.rb_V[a], self.rb_V[b], self.rb_w[a], self.rb_w[b]
-                un = (VA - VB).dot(n)
+                armA, armB = self.foot_arms(a, b, foot)   # round 94 (foot.py): at a cylinder's foot, with its moment
+                eye0 = half * ti.Matrix.identity(ti.f64, 3)
+                iA0 = (self.rb_R[a] @ self.rb_I0[a] @ self.rb_R[a].transpose() + MA * eye0).inverse()
+                iB0 = (self.rb_R[b] @ self.rb_I0[b] @ self.rb_R[b].transpose() + MB * eye0).inverse()
+                un = self.foot_approach(VA, wA, VB, wB, armA, armB, n)
                 # round 91: with the gap known, only the approach that would close it this substep (speculative)
                 un -= self.allowed_approach(self.pair_gap(a, b, n), un)
                 P = ti.cast(0.0, ti.f64)
-                if un > 0.0:   # the centres' approach, through the centres
-                    P = un / (1.0 / MA + 1.0 / MB)
+                if un > 0.0:   # the approach removed
+                    P = un / self.foot_mass(MA, MB, iA0, iB0, armA, armB, n)
                 VA -= (P / MA) * n
                 VB += (P / MB) * n
+                wA -= P * (iA0 @ armA.cross(n))
+                wB += P * (iB0 @ armB.cross(n))
+                x_c = self.foot_point(x_c, a, b, armA, armB)
                 rA, rB = x_c - self.rb_c[a], x_c - self.rb_c[b]
                 u = VA + wA.cross(rA) - VB - wB.cross(rB)
                 ut = u - u.dot(n) * n

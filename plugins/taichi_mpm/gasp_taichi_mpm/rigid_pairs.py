@@ -7,10 +7,11 @@ touching pairs solved together by projected Gauss-Seidel once a substep after th
 import numpy as np
 import taichi as ti
 
+from .foot import Foot
 from .hollow import Hollow
 
 
-class RigidPairs(Hollow):
+class RigidPairs(Hollow, Foot):
     """The pairs' arrays (:meth:`allocate_pairs`, :meth:`set_pairs`), :meth:`node_slot` and :meth:`rigid_pairs`;
     round 92's :class:`gasp_taichi_mpm.hollow.Hollow` beneath."""
 
@@ -37,7 +38,8 @@ class RigidPairs(Hollow):
         self.pair_islands = bool(ISLANDS)   # round 81: the GPU schedule's islands (rigid_pairs_gpu)
         self.pair_pad = float(NODE_PAD)
         self.pair_rows = ti.field(ti.i32, shape=2 * ns)   # round 65: each slot's two table rows
-        self.pair_allow = ti.field(ti.f64, shape=ns)   # round 91: the approach each slot may keep (pair_normal)
+        # round 91: the approach each slot may keep (pair_normal); round 94: its cylinder's foot (2 per slot)
+        self.pair_allow = ti.field(ti.f64, shape=2 * ns)
         # round 81, the GPU schedule's islands (rigid_pairs_gpu): each listed pair's height, the bodies' union-find
         # roots, each root's island, each ordered pair's island, the islands' counts, starts and fill, their pairs
         self.pair_key = ti.field(ti.f64, shape=ns)
@@ -251,10 +253,17 @@ class RigidPairs(Hollow):
         nb = self.n_bodies
         a, b = s // nb, s - (s // nb) * nb
         nn = ti.Vector([self.pair_acc[7 * s + 4], self.pair_acc[7 * s + 5], self.pair_acc[7 * s + 6]])
-        nn = self.round_normal(a, b, nn / ti.max(nn.norm(), 1.0e-300))
+        nn, foot = self.round_normal(a, b, nn / ti.max(nn.norm(), 1.0e-300))
+        armA, armB = self.foot_arms(a, b, foot)   # round 94: x_c onto a cylinder's foot
+        W = self.pair_acc[7 * s]
+        x_c = self.foot_point(ti.Vector([self.pair_acc[7 * s + 1], self.pair_acc[7 * s + 2],
+                                         self.pair_acc[7 * s + 3]]) / W, a, b, armA, armB)
         for ax in ti.static(range(3)):
             self.pair_acc[7 * s + 4 + ax] = nn[ax]
-        self.pair_allow[s] = self.allowed_approach(self.pair_gap(a, b, nn), (self.rb_V[a] - self.rb_V[b]).dot(nn))
+            self.pair_acc[7 * s + 1 + ax] = x_c[ax] * W
+        self.pair_allow[2 * s] = self.allowed_approach(self.pair_gap(a, b, nn),
+                                                       (self.rb_V[a] - self.rb_V[b]).dot(nn))
+        self.pair_allow[2 * s + 1] = foot
         return nn
 
     @ti.func
@@ -275,17 +284,25 @@ class RigidPairs(Hollow):
             x_c = ti.Vector([self.pair_acc[7 * s + 1], self.pair_acc[7 * s + 2],
                              self.pair_acc[7 * s + 3]]) / self.pair_acc[7 * s]
             MA, MB = self.rb_M[a], self.rb_M[b]
-            un = (self.rb_V[a] - self.rb_V[b]).dot(n)
-            P = ti.max(self.pair_lam[4 * s] + (un - self.pair_allow[s]) / (1.0 / MA + 1.0 / MB), 0.0)   # round 91
+            RA, RB = self.rb_R[a], self.rb_R[b]
+            eye = ti.Matrix.identity(ti.f64, 3)
+            iA = (RA @ self.rb_I0[a] @ RA.transpose() + half * MA * eye).inverse()
+            iB = (RB @ self.rb_I0[b] @ RB.transpose() + half * MB * eye).inverse()
+            # round 94 (foot.py): at a cylinder's foot (pair_allow[2 s + 1], pair_normal's; x_c moved onto it there)
+            armA, armB = self.foot_arms(a, b, self.pair_allow[2 * s + 1])
+            un = self.foot_approach(self.rb_V[a], self.rb_w[a], self.rb_V[b], self.rb_w[b], armA, armB, n)
+            P = ti.max(self.pair_lam[4 * s] + (un - self.pair_allow[2 * s]) / self.foot_mass(MA, MB, iA, iB, armA, armB,
+                                                                                            n), 0.0)   # round 91
             dP = P - self.pair_lam[4 * s]
             self.pair_lam[4 * s] = P
             self.rb_V[a] -= (dP / MA) * n
             self.rb_V[b] += (dP / MB) * n
+            self.rb_w[a] -= dP * (iA @ armA.cross(n))
+            self.rb_w[b] += dP * (iB @ armB.cross(n))
             rA, rB = x_c - self.rb_c[a], x_c - self.rb_c[b]
             u = self.rb_V[a] + self.rb_w[a].cross(rA) - self.rb_V[b] - self.rb_w[b].cross(rB)
             ut = u - u.dot(n) * n
             lt = ut.norm()
-            RA, RB = self.rb_R[a], self.rb_R[b]
             row_a, row_b = self.pair_rows[2 * s], self.pair_rows[2 * s + 1]   # round 65: a round body rolls
             f = self.roll_flat(a, b, row_a, row_b, RA, RB, n, ut, lt, self.rb_w[a] - self.rb_w[b])
             if f < 1.0:
@@ -294,9 +311,6 @@ class RigidPairs(Hollow):
                 u = self.rb_V[a] + self.rb_w[a].cross(rA) - self.rb_V[b] - self.rb_w[b].cross(rB)
                 ut = u - u.dot(n) * n
                 lt = ut.norm()
-            eye = ti.Matrix.identity(ti.f64, 3)
-            iA = (RA @ self.rb_I0[a] @ RA.transpose() + half * MA * eye).inverse()
-            iB = (RB @ self.rb_I0[b] @ RB.transpose() + half * MB * eye).inverse()
             nIA = n.dot(RA @ self.rb_I0[a] @ RA.transpose() @ n) + half * MA
             nIB = n.dot(RB @ self.rb_I0[b] @ RB.transpose() @ n) + half * MB
             J0 = ti.Vector([self.pair_lam[4 * s + 1], self.pair_lam[4 * s + 2], self.pair_lam[4 * s + 3]])

@@ -12,6 +12,7 @@ import warp as wp
 from gasp_core.mpm.rigid_friction import FLAT_FROM, FLAT_TO, TIP_SHARED
 
 from .precision import MODULE_OPTIONS, build_types
+from .foot import foot_approach, foot_arms, foot_mass, foot_point
 from .rigid_support import (Hollow, allowed_approach, body_inv, pair_gap, roll_flat, roll_point, round_normal, slip_at,
                             tip)
 
@@ -161,8 +162,8 @@ def build_rigid_pair(Ft):
         ln = wp.length(n)
         if W > wp.float64(0.0) and ln > wp.float64(0.0):
             # round 91: the normal from the shapes; with a gap known, only the approach that closes it this substep
-            n = round_normal(t_dirs, t_h, t_round, nd, cos_cone, a, b, rot[a], rot[b], centre[a], centre[b], n / ln,
-                             hol)
+            n, foot = round_normal(t_dirs, t_h, t_round, nd, cos_cone, a, b, rot[a], rot[b], centre[a], centre[b],
+                                   n / ln, hol)
             g = pair_gap(t_dirs, t_h, t_round, nd, cos_cone, a, b, rot[a], rot[b], centre[a], centre[b], n, hol)
             x_c = vec3d(acc[1], acc[2], acc[3]) / W
             MA = mass[a]
@@ -171,13 +172,20 @@ def build_rigid_pair(Ft):
             VB = vel[b]
             wA = spin[a]
             wB = spin[b]
-            un = wp.dot(VA - VB, n)
+            # round 94 (foot.py): at a cylinder's foot, with its moment; else through the centres
+            armA, armB = foot_arms(t_round, hol, a, b, rot[a], rot[b], foot)
+            iA = body_inv(inertia0[a], rot[a], MA, wp.float64(0.5) * dx * dx)
+            iB = body_inv(inertia0[b], rot[b], MB, wp.float64(0.5) * dx * dx)
+            un = foot_approach(VA, wA, VB, wB, armA, armB, n)
             un = un - allowed_approach(g, un, dt)
             P = wp.float64(0.0)
-            if un > wp.float64(0.0):   # the centres' approach, through the centres
-                P = un / (wp.float64(1.0) / MA + wp.float64(1.0) / MB)
+            if un > wp.float64(0.0):   # the approach removed
+                P = un / foot_mass(MA, MB, iA, iB, armA, armB, n)
             VA = VA - (P / MA) * n
             VB = VB + (P / MB) * n
+            wA = wA - P * (iA * wp.cross(armA, n))
+            wB = wB + P * (iB * wp.cross(armB, n))
+            x_c = foot_point(x_c, centre[a], centre[b], armA, armB)
             rA = x_c - centre[a]
             rB = x_c - centre[b]
             u = VA + wp.cross(wA, rA) - VB - wp.cross(wB, rB)

@@ -124,7 +124,8 @@ def build_rigid_pairs_gpu(Ft):
               lam: wp.array(dtype=wp.float64), sweeps: int, rows: wp.array(dtype=wp.int32),
               t_h: wp.array(dtype=wp.float64), t_curv: wp.array(dtype=mat33d), t_delta: wp.array(dtype=wp.float64),
               t_round: wp.array(dtype=wp.float64), isl_start: wp.array(dtype=wp.int32),
-              isl_list: wp.array(dtype=wp.int32), isl_n: wp.array(dtype=wp.int32), allow: wp.array(dtype=wp.float64)):
+              isl_list: wp.array(dtype=wp.int32), isl_n: wp.array(dtype=wp.int32), allow: wp.array(dtype=wp.float64),
+              hol: Hollow):
         i = wp.tid()
         if i >= isl_n[0]:
             return
@@ -132,7 +133,7 @@ def build_rigid_pairs_gpu(Ft):
         for _sweep in range(sweeps):
             for k in range(isl_start[i], isl_start[i + 1]):
                 pair_update(isl_list[k], nb, half, mass, inertia0, centre, rot, vel, spin, mu, acc, lam, rows, t_h,
-                            t_curv, t_delta, t_round, allow)
+                            t_curv, t_delta, t_round, allow, hol)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def advance(centre: wp.array(dtype=vec3d), vel: wp.array(dtype=vec3d), V0: wp.array(dtype=vec3d),
@@ -178,7 +179,7 @@ def islands_launches(eng, Ft) -> list:
         wp.launch(sweep, dim=nb, device=d, record_cmd=True, inputs=[
             eng.rb_M, eng.rb_I0, eng.rb_c, eng.rb_R, eng.rb_V, eng.rb_w, affine_dx(eng.dx), nb, eng.pair_mu,
             eng.pair_acc, eng.pair_lam, int(SWEEPS), eng.pair_rows, t_h, t_curv, t_delta, t_round, eng.pair_isl_start,
-            eng.pair_isl_list, eng.pair_isl_n, eng.pair_allow]),
+            eng.pair_isl_list, eng.pair_isl_n, eng.pair_allow, hol]),
         wp.launch(advance, dim=nb, device=d, record_cmd=True, inputs=[eng.rb_c, eng.rb_V, eng.pair_V0, float(eng.dt)]),
         wp.launch(clear, dim=ns, device=d, record_cmd=True, inputs=[
             eng.pair_acc, eng.pair_slots, eng.pair_n_keep, eng.pair_seen])]

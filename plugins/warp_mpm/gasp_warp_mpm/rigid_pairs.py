@@ -12,6 +12,7 @@ import numpy as np
 import warp as wp
 
 from .precision import MODULE_OPTIONS, build_types
+from .foot import foot_approach, foot_arms, foot_mass, foot_point
 from .rigid_support import (Hollow, allowed_approach, body_row, pair_gap, roll_flat_at, roll_point_at, round_normal,
                             slip_at, tip)
 
@@ -71,7 +72,7 @@ def build_pair_update(Ft):
                     vel: wp.array(dtype=vec3d), spin: wp.array(dtype=vec3d), mu: wp.array(dtype=wp.float64),
                     acc: wp.array(dtype=wp.float64), lam: wp.array(dtype=wp.float64), rows: wp.array(dtype=wp.int32),
                     t_h: wp.array(dtype=wp.float64), t_curv: wp.array(dtype=mat33d), t_delta: wp.array(dtype=wp.float64),
-                    t_round: wp.array(dtype=wp.float64), allow: wp.array(dtype=wp.float64)):
+                    t_round: wp.array(dtype=wp.float64), allow: wp.array(dtype=wp.float64), hol: Hollow):
         a = s / nb
         b = s - a * nb
         n = vec3d(acc[7 * s + 4], acc[7 * s + 5], acc[7 * s + 6])
@@ -81,12 +82,22 @@ def build_pair_update(Ft):
             x_c = vec3d(acc[7 * s + 1], acc[7 * s + 2], acc[7 * s + 3]) / acc[7 * s]
             MA = mass[a]
             MB = mass[b]
-            un = wp.dot(vel[a] - vel[b], n)
-            P = wp.max(lam[4 * s] + (un - allow[s]) / (wp.float64(1.0) / MA + wp.float64(1.0) / MB), wp.float64(0.0))
+            eye = wp.identity(n=3, dtype=wp.float64)
+            IA = rot[a] * inertia0[a] * wp.transpose(rot[a]) + half * MA * eye
+            IB = rot[b] * inertia0[b] * wp.transpose(rot[b]) + half * MB * eye
+            iA = wp.inverse(IA)
+            iB = wp.inverse(IB)
+            # round 94 (foot.py): at a cylinder's foot (allow[2 s + 1], pair_normal's; x_c moved onto it there)
+            armA, armB = foot_arms(t_round, hol, a, b, rot[a], rot[b], allow[2 * s + 1])
+            un = foot_approach(vel[a], spin[a], vel[b], spin[b], armA, armB, n)
+            P = wp.max(lam[4 * s] + (un - allow[2 * s]) / foot_mass(MA, MB, iA, iB, armA, armB, n),
+                       wp.float64(0.0))
             dP = P - lam[4 * s]
             lam[4 * s] = P
             vel[a] = vel[a] - (dP / MA) * n
             vel[b] = vel[b] + (dP / MB) * n
+            spin[a] = spin[a] - dP * (iA * wp.cross(armA, n))
+            spin[b] = spin[b] + dP * (iB * wp.cross(armB, n))
             rA = x_c - centre[a]
             rB = x_c - centre[b]
             u = vel[a] + wp.cross(spin[a], rA) - vel[b] - wp.cross(spin[b], rB)
@@ -99,9 +110,6 @@ def build_pair_update(Ft):
                 x_c = roll_point_at(t_h, t_round, a, b, rows[2 * s], rows[2 * s + 1], centre[a], centre[b], n, x_c)
                 rA, rB, ut = slip_at(x_c, vel[a], spin[a], centre[a], vel[b], spin[b], centre[b], n)
                 lt = wp.length(ut)
-            eye = wp.identity(n=3, dtype=wp.float64)
-            IA = rot[a] * inertia0[a] * wp.transpose(rot[a]) + half * MA * eye
-            IB = rot[b] * inertia0[b] * wp.transpose(rot[b]) + half * MB * eye
             nIA = wp.dot(n, IA * n)
             nIB = wp.dot(n, IB * n)
             J0 = vec3d(lam[4 * s + 1], lam[4 * s + 2], lam[4 * s + 3])
@@ -127,8 +135,6 @@ def build_pair_update(Ft):
             vel[b] = vel[b] + dJ / MB
             spin[a] = spin[a] - (wp.dot(wp.cross(rA, dJ), n) / nIA) * n
             spin[b] = spin[b] + (wp.dot(wp.cross(rB, dJ), n) / nIB) * n
-            iA = wp.inverse(IA)
-            iB = wp.inverse(IB)
             if f < wp.float64(1.0):
                 spin[a] = spin[a] - tip(f, iA, wp.cross(rA, dJ), n)
                 spin[b] = spin[b] + tip(f, iB, wp.cross(rB, dJ), n)
@@ -155,11 +161,16 @@ def pair_normal(acc: wp.array(dtype=wp.float64), s: int, nb: int, t_dirs: wp.arr
     b = s - a * nb
     nn = vec3d(acc[7 * s + 4], acc[7 * s + 5], acc[7 * s + 6])
     nn = nn / wp.max(wp.length(nn), wp.float64(1.0e-300))
-    nn = round_normal(t_dirs, t_h, t_round, nd, cos_cone, a, b, rot[a], rot[b], centre[a], centre[b], nn, hol)
+    nn, foot = round_normal(t_dirs, t_h, t_round, nd, cos_cone, a, b, rot[a], rot[b], centre[a], centre[b], nn, hol)
+    armA, armB = foot_arms(t_round, hol, a, b, rot[a], rot[b], foot)   # round 94: x_c onto a cylinder's foot
+    x_c = foot_point(vec3d(acc[7 * s + 1], acc[7 * s + 2], acc[7 * s + 3]) / acc[7 * s], centre[a], centre[b], armA,
+                     armB)
     for ax in range(3):
         acc[7 * s + 4 + ax] = nn[ax]
+        acc[7 * s + 1 + ax] = x_c[ax] * acc[7 * s]
     gap = pair_gap(t_dirs, t_h, t_round, nd, cos_cone, a, b, rot[a], rot[b], centre[a], centre[b], nn, hol)
-    allow[s] = allowed_approach(gap, wp.dot(vel[a] - vel[b], nn), dt)
+    allow[2 * s] = allowed_approach(gap, wp.dot(vel[a] - vel[b], nn), dt)
+    allow[2 * s + 1] = foot
     return nn
 
 
@@ -210,7 +221,7 @@ def build_rigid_pairs(Ft):
         for _sweep in range(sweeps):
             for q in range(n_on):
                 pair_update(order[q], nb, half, mass, inertia0, centre, rot, vel, spin, mu, acc, lam, rows, t_h,
-                            t_curv, t_delta, t_round, allow)
+                            t_curv, t_delta, t_round, allow, hol)
         for b in range(nb):
             centre[b] = centre[b] + dt * (vel[b] - V0[b])
         for q in range(n_on):   # the touching slots back to zero for the next substep
@@ -246,7 +257,8 @@ def allocate_pairs(eng, view) -> None:
     eng.pair_rows = wp.zeros(2 * ns, dtype=wp.int32, device=d)   # round 65: each slot's two table rows
     nbi = nb if many else 1   # round 81: the gpu schedule's islands (build_rigid_pairs_gpu)
     eng.pair_key = wp.zeros(ns, dtype=wp.float64, device=d)
-    eng.pair_allow = wp.zeros(ns, dtype=wp.float64, device=d)   # round 91: the approach each slot may keep
+    # round 91: the approach each slot may keep; round 94: its cylinder's foot (2 per slot)
+    eng.pair_allow = wp.zeros(2 * ns, dtype=wp.float64, device=d)
     eng.pair_isl = wp.zeros(ns, dtype=wp.int32, device=d)
     eng.pair_isl_list = wp.zeros(ns, dtype=wp.int32, device=d)
     eng.pair_root, eng.pair_isl_of = (wp.zeros(nbi, dtype=wp.int32, device=d) for _ in range(2))

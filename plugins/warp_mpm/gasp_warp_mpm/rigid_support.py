@@ -10,9 +10,11 @@ import numpy as np
 import warp as wp
 
 from gasp_core.mpm.rigid_friction import FLAT_FROM, FLAT_TO
+from gasp_core.mpm.rigid_fit import FOOT_BAND, FOOT_SAMPLES
 from gasp_core.mpm.rigid_support import HOLLOW_POWER_STEPS, HOLLOW_REACH, HOLLOW_WINDOW, ROUND_DEEP
 
 vec3d = wp.types.vector(3, wp.float64)
+vec4d = wp.types.vector(4, wp.float64)
 mat33d = wp.types.matrix((3, 3), wp.float64)
 FLAT_0 = wp.constant(wp.float64(FLAT_FROM))
 FLAT_W = wp.constant(wp.float64(FLAT_TO - FLAT_FROM))
@@ -20,6 +22,9 @@ DEEP = wp.constant(wp.float64(ROUND_DEEP))
 WINDOW = wp.constant(wp.float64(HOLLOW_WINDOW))
 POWER = wp.constant(HOLLOW_POWER_STEPS)
 REACH = wp.constant(wp.float64(HOLLOW_REACH))
+BAND = wp.constant(wp.float64(FOOT_BAND))
+SAMPLES = wp.constant(FOOT_SAMPLES)
+STEP = wp.constant(wp.float64(2.0 / FOOT_SAMPLES))
 
 
 @wp.struct
@@ -28,7 +33,8 @@ class Hollow:
     rest frames, sorted by cell (``X``; cell ``g``'s ``cstart[g]`` to ``cstart[g + 1]``; a body's cells' origin
     ``corg``, size ``csize`` and ``cdims`` ``[nx, ny, nz, first cell]``), each body's point spacing (m), and a round
     body's radius, half-length (m) and rest axis (zeros: a sphere's); round 93: ``curved``, per table row 1.0 where
-    the body reads curved there (``gasp_core.mpm.rigid_support.curved_rows``)."""
+    the body reads curved there (``gasp_core.mpm.rigid_support.curved_rows``); round 94: ``side``, per body 1.0 for a
+    cylinder whose side takes its foot (``gasp_core.mpm.rigid_fit.CYL_SIDE``)."""
     X: wp.array(dtype=vec3d)
     cstart: wp.array(dtype=wp.int32)
     corg: wp.array(dtype=vec3d)
@@ -39,6 +45,7 @@ class Hollow:
     half: wp.array(dtype=wp.float64)
     axis: wp.array(dtype=vec3d)
     curved: wp.array(dtype=wp.float64)
+    side: wp.array(dtype=wp.float64)
 
 
 def support_arrays(data, device, nb: int, setup=None) -> tuple:
@@ -56,11 +63,11 @@ def support_arrays(data, device, nb: int, setup=None) -> tuple:
     data = hollow_data(setup, rnd) if setup is not None else {
         "X": np.zeros((1, 3)), "cstart": np.zeros(nb + 1, np.int32), "corg": np.zeros((nb, 3)), "csize": np.ones(nb),
         "cdims": np.ravel([[1, 1, 1, b] for b in range(nb)]).astype(np.int32), "spacing": np.zeros(nb),
-        "radius": np.zeros(nb), "half": np.zeros(nb), "axis": np.zeros((nb, 3))}
+        "radius": np.zeros(nb), "half": np.zeros(nb), "axis": np.zeros((nb, 3)), "side": np.zeros(nb)}
     hol = Hollow()
     for name in ("X", "corg", "axis"):
         setattr(hol, name, wp.array(data[name], dtype=vec3d, device=device))
-    for name in ("csize", "spacing", "radius", "half"):
+    for name in ("csize", "spacing", "radius", "half", "side"):
         setattr(hol, name, wp.array(data[name], dtype=wp.float64, device=device))
     for name in ("cstart", "cdims"):
         setattr(hol, name, wp.array(data[name], dtype=wp.int32, device=device))
@@ -157,7 +164,8 @@ def cell_span(lo: wp.float64, hi: wp.float64, c: wp.float64, n: int):
 def hollow_sums(hol: Hollow, f: int, q: vec3d, e: vec3d, h: wp.float64, reach: wp.float64, d_min: wp.float64,
                 win: wp.float64):
     # one pass over body f's outer points in the cells within reach of round body's segment q +- h e (f's frame):
-    # with win 0 the least distance (d_min's), else the plane fit's weighted sums (W, sum w Y, sum w Y Y^T)
+    # with win 0 the least distance (d_min's), else the plane fit's weighted sums (W, sum w Y, sum w Y Y^T) and
+    # round 94's along the axis (sum w t^k, k 1-4, and sum w t^k Y, k 1-2, t = Y . e / h; h 0: t 0)
     ext = vec3d(wp.abs(e[0]), wp.abs(e[1]), wp.abs(e[2])) * h + vec3d(reach, reach, reach)
     o = q - hol.corg[f]
     c = hol.csize[f]
@@ -172,6 +180,9 @@ def hollow_sums(hol: Hollow, f: int, q: vec3d, e: vec3d, h: wp.float64, reach: w
     W = wp.float64(0.0)
     y = vec3d(wp.float64(0.0))
     S = mat33d(wp.float64(0.0))
+    T = vec4d(wp.float64(0.0))
+    Y1 = vec3d(wp.float64(0.0))
+    Y2 = vec3d(wp.float64(0.0))
     for i in range(i0, i1 + 1):
         for j in range(j0, j1 + 1):
             for k in range(k0, k1 + 1):
@@ -188,7 +199,37 @@ def hollow_sums(hol: Hollow, f: int, q: vec3d, e: vec3d, h: wp.float64, reach: w
                                 W = W + t * t
                                 y = y + (t * t) * Y
                                 S = S + (t * t) * wp.outer(Y, Y)
-    return dm, W, y, S
+                                if h > wp.float64(0.0):
+                                    u = wp.dot(Y, e) / h
+                                    T = T + (t * t) * vec4d(u, u * u, u * u * u, u * u * u * u)
+                                    Y1 = Y1 + (t * t * u) * Y
+                                    Y2 = Y2 + (t * t * u * u) * Y
+    return dm, W, y, S, T, Y1, Y2
+
+
+@wp.func
+def side_foot(W: wp.float64, Y0: vec3d, T: vec4d, Y1: vec3d, Y2: vec3d, m: vec3d, me: wp.float64, h: wp.float64,
+              band: wp.float64):
+    # round 94 (gasp_core.mpm.rigid_fit.side_foot): the parabola of the patch's heights z = Y . m in u = t / h fitted
+    # from the sums (normal equations), the side's gap along the segment read at SAMPLES points, the foot (m along
+    # the axis) the mean of t weighted by max(band - (gap - least gap), 0); 0 where the fit is singular
+    A = mat33d(wp.float64(1.0), T[0] / W, T[1] / W, T[0] / W, T[1] / W, T[2] / W, T[1] / W, T[2] / W, T[3] / W)
+    foot = wp.float64(0.0)
+    if wp.determinant(A) > wp.float64(1.0e-9):
+        c = wp.inverse(A) * (vec3d(wp.dot(m, Y0), wp.dot(m, Y1), wp.dot(m, Y2)) / W)
+        least = wp.float64(1.0e30)
+        for k in range(SAMPLES):
+            u = wp.float64(-1.0) + (wp.float64(k) + wp.float64(0.5)) * STEP
+            least = wp.min(least, u * h * me - (c[1] * u + c[2] * u * u))
+        P = wp.float64(0.0)
+        Pu = wp.float64(0.0)
+        for j in range(SAMPLES):
+            u = wp.float64(-1.0) + (wp.float64(j) + wp.float64(0.5)) * STEP
+            p = wp.max(band - (u * h * me - (c[1] * u + c[2] * u * u) - least), wp.float64(0.0))
+            P = P + p
+            Pu = Pu + p * u
+        foot = h * Pu / P
+    return foot
 
 
 @wp.func
@@ -196,16 +237,19 @@ def hollow_normal(hol: Hollow, f: int, r: int, Rf: mat33d, Rr: mat33d, cf: vec3d
     # round 92 (gasp_core.mpm.rigid_support.hollow_normal): the normal out of body f towards round body r's centre cr
     # (a cylinder's axis), the least spread of f's outer points within d_min + WINDOW s of it, of those within its
     # radius + REACH s, weighted (1 - (d - d_min) / (WINDOW s))^2 (power steps of tr(C) I - C from the nodes' fn,
-    # turned towards cr); fn where there are none. Only the cells within the reach are read (hollow_sums).
+    # turned towards cr); fn where there are none. Only the cells within the reach are read (hollow_sums). Round 94
+    # (gasp_core.mpm.rigid_fit.hollow_contact): with it, a cylinder's foot (m along its axis from cr; 0 but for its
+    # side, hol.side), its normal then across its axis.
     q = wp.transpose(Rf) * (cr - cf)
     e = wp.transpose(Rf) * (Rr * hol.axis[r])
     h = hol.half[r]
     reach = hol.radius[r] + REACH * hol.spacing[f]
-    d_min, W0, y0, S0 = hollow_sums(hol, f, q, e, h, reach, wp.float64(1.0e30), wp.float64(0.0))
+    d_min, W0, y0, S0, T0, Y10, Y20 = hollow_sums(hol, f, q, e, h, reach, wp.float64(1.0e30), wp.float64(0.0))
     out = fn
+    foot = wp.float64(0.0)
     if d_min < wp.float64(1.0e29):
-        dm, W, y, S = hollow_sums(hol, f, q, e, h, reach, d_min, WINDOW * hol.spacing[f])
-        y = y / W
+        dm, W, Ys, S, T, Y1, Y2 = hollow_sums(hol, f, q, e, h, reach, d_min, WINDOW * hol.spacing[f])
+        y = Ys / W
         C = S / W - wp.outer(y, y)
         M = (C[0, 0] + C[1, 1] + C[2, 2]) * wp.identity(n=3, dtype=wp.float64) - C
         m = wp.transpose(Rf) * fn
@@ -213,8 +257,11 @@ def hollow_normal(hol: Hollow, f: int, r: int, Rf: mat33d, Rr: mat33d, cf: vec3d
             m = wp.normalize(M * m)
         if wp.dot(m, y) > wp.float64(0.0):
             m = -m
+        if hol.side[r] > wp.float64(0.0) and wp.abs(wp.dot(y, e)) < h:   # round 94: a cylinder's side
+            m = wp.normalize(m - wp.dot(m, e) * e)
+            foot = side_foot(W, Ys, T, Y1, Y2, m, wp.dot(m, e), h, BAND * hol.spacing[f])
         out = Rf * m
-    return out
+    return out, foot
 
 
 @wp.func
@@ -226,8 +273,10 @@ def round_normal(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), rnd
     # nodes' n that leaves the two supports farthest apart (the separating axis, rigid_support.round_normal); n
     # otherwise, with the switch off (cos_cone > 1), or where no direction lies in the cone; round 92: too deep in the
     # hull for a contact (a hollow), a round body takes hollow_normal; round 93: so does one whose row reads the other
-    # body curved there (hol.curved, rigid_support.curved_rows), started from the row
+    # body curved there (hol.curved, rigid_support.curved_rows), started from the row; round 94: with it, a
+    # cylinder's foot on the fit (hollow_normal; 0 otherwise)
     out = n
+    foot = wp.float64(0.0)
     if cos_cone <= wp.float64(1.0) and rnd[a] == wp.float64(1.0) and rnd[b] == wp.float64(1.0):
         out = wp.normalize(cB - cA)
     elif nd > 0 and (rnd[a] > wp.float64(0.0)) != (rnd[b] > wp.float64(0.0)):
@@ -265,10 +314,12 @@ def round_normal(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), rnd
         if top < -DEEP * hr:   # deeper in the other body's hull than a contact can be: a concave part, the nodes' n
             out = n
             if cos_cone <= wp.float64(1.0) and top > wp.float64(-1.0e29):
-                out = sg * hollow_normal(hol, f, r, Rf, Rr, cf, cr, fn)
+                fit, foot = hollow_normal(hol, f, r, Rf, Rr, cf, cr, fn)
+                out = sg * fit
         elif top > wp.float64(-1.0e29) and hol.curved[best] > wp.float64(0.0):   # round 93: a curved face, the fit
-            out = sg * hollow_normal(hol, f, r, Rf, Rr, cf, cr, sg * out)
-    return out
+            fit, foot = hollow_normal(hol, f, r, Rf, Rr, cf, cr, sg * out)
+            out = sg * fit
+    return out, foot
 
 
 @wp.func
