@@ -138,3 +138,18 @@ def side_foot(Y, w, m, e, half: float, band: float) -> float:
     gap = tk * half * float(m @ e) - (a1 * tk + a2 * tk * tk)   # the side's height less the surface's, less a constant
     p = np.clip(band - (gap - gap.min()), 0.0, None)
     return float(half * (p * tk).sum() / p.sum())
+
+
+def foot_approach(VA, wA, VB, wB, arms, n) -> tuple[float, np.ndarray, np.ndarray]:
+    """Round 94: the approach along ``n`` (m/s) of A's point at a cylinder's foot to B's, and the two arms (m, world,
+    from each body's centre; the round body's ``foot`` times its world axis, zeros for the other): through the
+    centres where ``arms`` is None (the pair law before round 94, bit for bit). The engines' ``foot.py``."""
+    arm_a, arm_b = (np.zeros(3), np.zeros(3)) if arms is None else (np.asarray(a, np.float64) for a in arms)
+    return float(np.dot(VA + np.cross(wA, arm_a) - VB - np.cross(wB, arm_b), n)), arm_a, arm_b
+
+
+def foot_mass(MA: float, MB: float, iA, iB, arm_a, arm_b, n) -> float:
+    """Round 94: the inverse of the pair's effective mass along ``n`` at the foot (1/kg; ``1 / MA + 1 / MB`` with zero
+    arms; ``iA``, ``iB`` the inverse inertias at the pose, 1/(kg m^2))."""
+    gA, gB = np.cross(arm_a, n), np.cross(arm_b, n)
+    return 1.0 / MA + 1.0 / MB + float(gA @ iA @ gA) + float(gB @ iB @ gB)

@@ -212,7 +212,7 @@ def allowed_approach(gap: float, un: float, dt: float) -> float:
     return max(gap / dt + un, 0.0) if gap > -1.0e29 else 0.0
 
 
-def pair_contact(A, B, x_c, n, mu: float, flat=1.0, plane=None, allow: float = 0.0):
+def pair_contact(A, B, x_c, n, mu: float, flat=1.0, plane=None, allow: float = 0.0, arms=None):
     """The contact of two rigid bodies as one, by force balance (issue 67 item 4; the NumPy reference of each grid
     plugin's ``pair_contact``): the substep's normal impulse, then Coulomb's friction of it, both equal and opposite.
 
@@ -254,18 +254,30 @@ def pair_contact(A, B, x_c, n, mu: float, flat=1.0, plane=None, allow: float = 0
         taken there. None: at ``x_c``.
     allow : float
         Round 91: the approach kept, m/s (:func:`allowed_approach`; 0: all removed).
+    arms : tuple or None
+        Round 94 (``gasp_core.mpm.rigid_fit.side_foot``): ``(arm_A, arm_B)``, m, world, where a cylinder's side bears
+        on a fitted surface: the normal impulse acts at its foot (the approach and the effective mass taken there,
+        its moment turning the cylinder), and ``x_c`` is moved along the axis onto it. None: through the centres.
 
     Returns
     -------
     (V_A, w_A), (V_B, w_B), P : ndarray pairs and float
         The bodies' velocities and spins after the contact, and the normal impulse on B (kg m/s, >= 0).
     """
+    from gasp_core.mpm.rigid_fit import foot_approach, foot_mass
     (VA, wA, IA, MA, cA), (VB, wB, IB, MB, cB) = A, B
     VA, wA, cA, VB, wB, cB, x_c, n = (np.asarray(a, np.float64) for a in (VA, wA, cA, VB, wB, cB, x_c, n))
     nIA, nIB = float(n @ np.asarray(IA, np.float64) @ n), float(n @ np.asarray(IB, np.float64) @ n)
-    un = float(np.dot(VA - VB, n)) - allow
-    P = un / (1.0 / MA + 1.0 / MB) if un > 0.0 else 0.0
+    iA0, iB0 = np.linalg.inv(np.asarray(IA, np.float64)), np.linalg.inv(np.asarray(IB, np.float64))
+    un, arm_a, arm_b = foot_approach(VA, wA, VB, wB, arms, n)
+    un -= allow
+    P = un / foot_mass(MA, MB, iA0, iB0, arm_a, arm_b, n) if un > 0.0 else 0.0
     VA, VB = VA - (P / MA) * n, VB + (P / MB) * n
+    wA, wB = wA - P * (iA0 @ np.cross(arm_a, n)), wB + P * (iB0 @ np.cross(arm_b, n))
+    for arm, c in ((arm_a, cA), (arm_b, cB)):   # round 94: the contact point on the foot
+        if np.linalg.norm(arm) > 0.0:
+            e = arm / np.linalg.norm(arm)
+            x_c = x_c + arm - float(np.dot(x_c - c, e)) * e
     rA, rB = x_c - cA, x_c - cB
     u = VA + np.cross(wA, rA) - VB - np.cross(wB, rB)
     ut = u - np.dot(u, n) * n

@@ -177,19 +177,28 @@ def node_bodies(xn, in_a, rigid, centre, rot, boxes, pad: float):
     return best[0][0], best[1][0]
 
 
-def _pair_update(A, B, x_c, n, mu, lam, flat=1.0, plane=None, allow=0.0):
+def _pair_update(A, B, x_c, n, mu, lam, flat=1.0, plane=None, allow=0.0, arms=None):
     """One pair's update within a sweep (:func:`solve_pairs`): ``A``, ``B`` lists ``[V, w, I, M, c]`` changed in place;
     ``lam`` ``[P, J (3,)]``, the pair's accumulated normal impulse (kg m/s) and friction impulse on B, changed.
     Round 65: ``flat`` and ``plane`` as ``rigid_friction.pair_contact``'s (the flatness along the slip, or along the
     bodies' relative rolling where they do not slip): ``(1 - f)`` of the friction's tipping moment turns the bodies,
     and the faces hold ``f`` of their relative tipping spin (a ball rolls on a block; a block on a block as before).
-    Round 91: ``allow`` the approach speed the pair may keep (m/s, ``rigid_friction.allowed_approach``)."""
+    Round 91: ``allow`` the approach speed the pair may keep (m/s, ``rigid_friction.allowed_approach``). Round 94:
+    ``arms`` as ``rigid_friction.pair_contact``'s (the normal impulse at a cylinder's foot, ``x_c`` moved onto it)."""
+    from gasp_core.mpm.rigid_fit import foot_approach, foot_mass
     VA, wA, IA, MA, cA = A
     VB, wB, IB, MB, cB = B
-    un = float(np.dot(VA - VB, n))
-    P = max(lam[0] + (un - allow) / (1.0 / MA + 1.0 / MB), 0.0)
+    iA, iB = np.linalg.inv(IA), np.linalg.inv(IB)
+    un, arm_a, arm_b = foot_approach(VA, wA, VB, wB, arms, n)
+    P = max(lam[0] + (un - allow) / foot_mass(MA, MB, iA, iB, arm_a, arm_b, n), 0.0)
     dP, lam[0] = P - lam[0], P
     A[0], B[0] = VA - (dP / MA) * n, VB + (dP / MB) * n
+    A[1], B[1] = wA - dP * (iA @ np.cross(arm_a, n)), wB + dP * (iB @ np.cross(arm_b, n))
+    wA, wB = A[1], B[1]
+    for arm, c in ((arm_a, cA), (arm_b, cB)):   # round 94: the contact point on the foot
+        if np.linalg.norm(arm) > 0.0:
+            e = arm / np.linalg.norm(arm)
+            x_c = x_c + arm - float(np.dot(x_c - c, e)) * e
     rA, rB = x_c - cA, x_c - cB
     u = A[0] + np.cross(wA, rA) - B[0] - np.cross(wB, rB)
     ut = u - np.dot(u, n) * n
@@ -202,7 +211,6 @@ def _pair_update(A, B, x_c, n, mu, lam, flat=1.0, plane=None, allow=0.0):
         ut = u - np.dot(u, n) * n
         lt = float(np.linalg.norm(ut))
     J = lam[1].copy()
-    iA, iB = np.linalg.inv(IA), np.linalg.inv(IB)
     if mu > 0.0 and lt > 0.0 and P > 0.0:   # the impulse that stops the slip, added to the pair's
         t = ut / lt
         sA, sB = float(np.dot(np.cross(rA, t), n)), float(np.dot(np.cross(rB, t), n))   # the twist arms about n
