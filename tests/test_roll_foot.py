@@ -34,10 +34,10 @@ FOOT_EVEN, FOOT_SCAN, NORMAL_DEG = 0.001, 0.005, 1.0
 
 
 def cap(radius: float, jitter: bool, seed: int = 3) -> np.ndarray:
-    """Points (m) on the cap of the sphere of ``radius`` about the origin within 0.3 m of its top (at most 0.5 rad), at
+    """Points (m) on the cap of the sphere of ``radius`` about the origin within 0.5 m of its top (at most 0.5 rad), at
     random at the spacing's areal density; ``jitter``: each moved along its normal by up to a quarter spacing."""
     rng = np.random.default_rng(seed)
-    half_angle = min(0.5, 0.3 / radius)
+    half_angle = min(0.5, 0.5 / radius)
     n = int(2 * math.pi * radius ** 2 * (1 - math.cos(half_angle)) / SPACING ** 2)
     z = rng.uniform(math.cos(half_angle), 1.0, n)
     phi = rng.uniform(0.0, 2 * math.pi, n)
@@ -65,7 +65,7 @@ def sphere_cases(radius: float, jitter: bool):
             n, foot = rigid_fit.hollow_contact(X, SPACING, np.eye(3), np.zeros(3), c, np.array([0.0, 0.0, 1.0]),
                                                axis=e, half=HALF, radius=R)
             want = rule(lambda t: np.sqrt(D * D + (t - tf) ** 2) - radius)
-            yield tilt, tf, foot, want, math.degrees(math.acos(min(1.0, float(n @ n_exact))))
+            yield tilt, tf, 0.0 if foot is None else foot, want, math.degrees(math.acos(min(1.0, float(n @ n_exact))))
 
 
 def misses(radius: float, jitter: bool, tol: float) -> list[str]:

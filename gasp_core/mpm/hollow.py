@@ -90,8 +90,9 @@ def hollow_data(setup, rnd) -> dict:
     - ``"radius"``, ``"half"`` (n_bodies,) m and ``"axis"`` (n_bodies, 3): each round body's radius, and a
       cylinder's half-length and unit axis in its rest frame (``round_ground.ground_shapes``; zeros: a sphere's
       axis, and the others);
-    - ``"side"`` (n_bodies,): round 94, 1.0 for a cylinder where :data:`gasp_core.mpm.rigid_fit.CYL_SIDE` is on (its
-      side's normal across its axis and its foot, ``rigid_fit.hollow_contact``), else 0.
+    - ``"side"`` (n_bodies,): round 94, for a cylinder where :data:`gasp_core.mpm.rigid_fit.CYL_SIDE` is on (its
+      side's normal across its axis and its foot, ``rigid_fit.hollow_contact``) 1.0, the contact a point there
+      (``rigid_fit.FOOT_POINT``), or 2.0 without it; else 0.
 
     A body has outer points when it is rigid and not round (``rnd`` 0, :func:`gasp_core.mpm.rigid_pairs.
     support_data`'s round column) and a rigid round body (``rnd`` 1 or 2) shares the scene; none otherwise, and none
@@ -126,7 +127,8 @@ def hollow_data(setup, rnd) -> dict:
             "cstart": np.r_[0, np.cumsum(counts)].astype(np.int32), "corg": corg, "csize": csize,
             "cdims": np.asarray(cdims, np.int32), "spacing": spacing,
             "radius": np.where(round_, shapes[:, 0], 0.0), "half": np.where(cyl, shapes[:, 1], 0.0),
-            "axis": np.where(cyl[:, None], shapes[:, 2:5], 0.0), "side": np.where(cyl, float(rigid_fit.CYL_SIDE), 0.0)}
+            "axis": np.where(cyl[:, None], shapes[:, 2:5], 0.0), "side": np.where(cyl & bool(rigid_fit.CYL_SIDE),
+                                                                                1.0 if rigid_fit.FOOT_POINT else 2.0, 0.0)}
 
 
 def body_points(data: dict, b: int) -> np.ndarray:

@@ -21,6 +21,11 @@ HOLLOW_POWER_STEPS = 24
 #: with that point's moment about the axis's middle; 0: the fit's normal as it is, pushed through the centres (round
 #: 92-93's, the broken variant: a cylinder across a 1 m mound tipped sideways and arrived 15 % slow).
 CYL_SIDE = 1
+#: Round 94: 1: where a cylinder's side bears at its foot, the pair's contact is a point there, holding no tipping
+#: moment of its friction (the pair's flatness 0: ``rigid_friction.pair_contact``'s ``arms``); 0: the pair's flatness
+#: as before (the broken variant: a face's hold on the friction's moment across the axis, so that a cylinder rocking
+#: on a sphere swung as if its contact slid freely along its axis, its period 30 % short).
+FOOT_POINT = 1
 #: Round 94: :func:`side_foot`'s band, in the other body's point spacings: the cylinder's line bears where its gap is
 #: within it of the least (0.1 spacings, ``RIGID_SLOP dx`` for the fill's spacing ``dx / 2``, as a cylinder's line
 #: on a plane is level while its ends are within that slop, ``round_ground.level_band``).
@@ -36,7 +41,7 @@ def hollow_normal(X_f, s_f: float, R_f, c_f, c_r, n, axis=(0.0, 0.0, 0.0), half:
 
 
 def hollow_contact(X_f, s_f: float, R_f, c_f, c_r, n, axis=(0.0, 0.0, 0.0), half: float = 0.0,
-                   radius: float = np.inf) -> tuple[np.ndarray, float]:
+                   radius: float = np.inf) -> tuple[np.ndarray, float | None]:
     """Round 92: the unit normal out of body ``f`` towards a sphere's centre ``c_r`` (m), or a cylinder's axis, the
     plane fitted to ``f``'s outer points nearest it (:mod:`gasp_core.mpm.hollow`'s notes: within ``d_min +
     HOLLOW_WINDOW s_f``, weighted, the least spread by power steps from ``n``, turned towards ``c_r``), of the points
@@ -64,15 +69,15 @@ def hollow_contact(X_f, s_f: float, R_f, c_f, c_r, n, axis=(0.0, 0.0, 0.0), half
 
     Returns
     -------
-    (ndarray, shape (3,), float)
+    (ndarray, shape (3,), float or None)
         The unit normal out of ``f`` (``n`` where ``f`` has no outer points within the reach) and, round 94
         (:data:`CYL_SIDE`), where a cylinder's side touches (the patch's weighted centre along its segment,
         ``|y . axis| < half``) its foot (:func:`side_foot`, m along ``axis`` from ``c_r``), its normal then taken
-        across the axis (a side's normal is, whatever it touches); 0.0 otherwise.
+        across the axis (a side's normal is, whatever it touches); None otherwise (no side contact).
     """
     X_f = np.asarray(X_f, np.float64)
     if not len(X_f) or not s_f > 0.0:
-        return np.asarray(n, np.float64), 0.0
+        return np.asarray(n, np.float64), None
     R_f = np.asarray(R_f, np.float64)
     q = R_f.T @ (np.asarray(c_r, np.float64) - np.asarray(c_f, np.float64))
     Y = X_f - q
@@ -80,7 +85,7 @@ def hollow_contact(X_f, s_f: float, R_f, c_f, c_r, n, axis=(0.0, 0.0, 0.0), half
     d = np.linalg.norm(Y - np.clip(Y @ e, -half, half)[:, None] * e[None, :], axis=1)
     near = d <= radius + HOLLOW_REACH * s_f
     if not near.any():
-        return np.asarray(n, np.float64), 0.0
+        return np.asarray(n, np.float64), None
     Y, d = Y[near], d[near]
     w = np.clip(1.0 - (d - d.min()) / (HOLLOW_WINDOW * s_f), 0.0, None) ** 2
     y = (w[:, None] * Y).sum(0) / w.sum()
@@ -92,7 +97,7 @@ def hollow_contact(X_f, s_f: float, R_f, c_f, c_r, n, axis=(0.0, 0.0, 0.0), half
         m = m / np.linalg.norm(m)
     if m @ y > 0.0:   # towards the sphere's centre, away from the points' mean
         m = -m
-    foot = 0.0
+    foot = None
     if CYL_SIDE and half > 0.0 and abs(float(y @ e)) < half:   # round 94: a cylinder's side
         m = m - (m @ e) * e
         m = m / np.linalg.norm(m)
@@ -102,12 +107,12 @@ def hollow_contact(X_f, s_f: float, R_f, c_f, c_r, n, axis=(0.0, 0.0, 0.0), half
 
 def side_foot(Y, w, m, e, half: float, band: float) -> float:
     """Round 94: where along a solid cylinder's segment its side bears on a fitted surface (m from its centre along
-    ``e``). The patch's heights along the normal ``m`` are fitted, weighted, by a parabola in the axial coordinate
-    ``t = Y . e`` (least squares); the gap from the side to it along the segment ``|t| <= half`` is read at
-    :data:`FOOT_SAMPLES` points, and the foot is the mean of ``t`` weighted by ``max(band - (gap - least gap), 0)``:
-    on a convex surface the parabola's vertex (the foot of the normal from the surface's centre of curvature, so that
-    a tilted cylinder's load moves to its lower side as a board's on a log does), on a surface level with the axis
-    the segment's middle (a line contact's resultant), and on one tilted along it the lower end.
+    ``e``). The patch's heights along the normal ``m`` are fitted, with the plane fit's weights, by a parabola in the
+    axial coordinate ``t = Y . e`` (least squares); the gap from the side to it along the segment ``|t| <= half`` is
+    read at :data:`FOOT_SAMPLES` points, and the foot is the mean of ``t`` weighted by ``max(band - (gap - least
+    gap), 0)``: on a convex surface the parabola's vertex (the foot of the normal from the surface's centre of
+    curvature, so that a tilted cylinder's load moves to its lower side as a board's on a log does), on a surface
+    level with the axis the segment's middle (a line contact's resultant), and on one tilted along it the lower end.
 
     Parameters
     ----------

@@ -257,14 +257,16 @@ def pair_contact(A, B, x_c, n, mu: float, flat=1.0, plane=None, allow: float = 0
     arms : tuple or None
         Round 94 (``gasp_core.mpm.rigid_fit.side_foot``): ``(arm_A, arm_B)``, m, world, where a cylinder's side bears
         on a fitted surface: the normal impulse acts at its foot (the approach and the effective mass taken there,
-        its moment turning the cylinder), and ``x_c`` is moved along the axis onto it. None: through the centres.
+        its moment turning the cylinder), ``x_c`` is moved along the axis onto it, and the contact is a point there:
+        the flatness ``f`` is 0 (no tipping moment held; the foot's moment holds what the point can). None: through
+        the centres.
 
     Returns
     -------
     (V_A, w_A), (V_B, w_B), P : ndarray pairs and float
         The bodies' velocities and spins after the contact, and the normal impulse on B (kg m/s, >= 0).
     """
-    from gasp_core.mpm.rigid_fit import foot_approach, foot_mass
+    from gasp_core.mpm.rigid_fit import FOOT_POINT, foot_approach, foot_mass
     (VA, wA, IA, MA, cA), (VB, wB, IB, MB, cB) = A, B
     VA, wA, cA, VB, wB, cB, x_c, n = (np.asarray(a, np.float64) for a in (VA, wA, cA, VB, wB, cB, x_c, n))
     nIA, nIB = float(n @ np.asarray(IA, np.float64) @ n), float(n @ np.asarray(IB, np.float64) @ n)
@@ -285,7 +287,7 @@ def pair_contact(A, B, x_c, n, mu: float, flat=1.0, plane=None, allow: float = 0
     if P <= 0.0 or mu <= 0.0 or lt <= 0.0:
         return (VA, wA), (VB, wB), P
     t = ut / lt
-    f = float(flat(t)) if callable(flat) else float(flat)
+    f = 0.0 if arms is not None and FOOT_POINT else float(flat(t)) if callable(flat) else float(flat)
     if f < 1.0 and plane is not None:   # a round body rolls on its surface: the contact point moved onto it
         x_c = x_c + (plane - float(np.dot(x_c, n))) * n
         rA, rB = x_c - cA, x_c - cB

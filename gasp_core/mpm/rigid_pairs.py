@@ -184,8 +184,9 @@ def _pair_update(A, B, x_c, n, mu, lam, flat=1.0, plane=None, allow=0.0, arms=No
     bodies' relative rolling where they do not slip): ``(1 - f)`` of the friction's tipping moment turns the bodies,
     and the faces hold ``f`` of their relative tipping spin (a ball rolls on a block; a block on a block as before).
     Round 91: ``allow`` the approach speed the pair may keep (m/s, ``rigid_friction.allowed_approach``). Round 94:
-    ``arms`` as ``rigid_friction.pair_contact``'s (the normal impulse at a cylinder's foot, ``x_c`` moved onto it)."""
-    from gasp_core.mpm.rigid_fit import foot_approach, foot_mass
+    ``arms`` as ``rigid_friction.pair_contact``'s (the normal impulse at a cylinder's foot, ``x_c`` moved onto it, the
+    flatness 0: a point there)."""
+    from gasp_core.mpm.rigid_fit import FOOT_POINT, foot_approach, foot_mass
     VA, wA, IA, MA, cA = A
     VB, wB, IB, MB, cB = B
     iA, iB = np.linalg.inv(IA), np.linalg.inv(IB)
@@ -203,7 +204,7 @@ def _pair_update(A, B, x_c, n, mu, lam, flat=1.0, plane=None, allow=0.0, arms=No
     u = A[0] + np.cross(wA, rA) - B[0] - np.cross(wB, rB)
     ut = u - np.dot(u, n) * n
     lt = float(np.linalg.norm(ut))
-    f = _roll_flatness(flat, ut, lt, wA - wB, n)
+    f = 0.0 if arms is not None and FOOT_POINT else _roll_flatness(flat, ut, lt, wA - wB, n)   # round 94: a point at the foot
     if f < 1.0 and plane is not None:   # a round body rolls on its surface: the contact point moved onto it
         x_c = x_c + (plane - float(np.dot(x_c, n))) * n
         rA, rB = x_c - cA, x_c - cB

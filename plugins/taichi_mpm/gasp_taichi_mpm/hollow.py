@@ -17,7 +17,7 @@ class Hollow:
         """``gasp_core.mpm.hollow.hollow_data``'s dict as fields: ``hol_X`` (the outer points, rest frames, sorted by
         cell), ``hol_cstart``, ``hol_corg``, ``hol_csize``, ``hol_cdims`` (the cells), ``hol_s`` (spacings),
         ``hol_radius``, ``hol_half``, ``hol_axis`` (the round bodies' shapes), ``hol_side`` (round 94: 1.0 for a
-        cylinder whose side takes its foot). None: zero fields of one entry a body,
+        cylinder whose side takes its foot as a point, 2.0 its foot alone). None: zero fields of one entry a body,
         allocated once and nothing uploaded (zero cells: no read; round 66's rule for the empty tables)."""
         nb = max(int(self.n_bodies), 1)
         if data is None and getattr(self, "hol_X", None) is not None:
@@ -112,8 +112,8 @@ class Hollow:
         centre (a cylinder's axis), the least spread of ``f``'s outer points within ``d_min + HOLLOW_WINDOW s`` of
         it, of those within its radius and ``HOLLOW_REACH s`` (power steps of ``tr(C) I - C`` from the nodes' ``fn``,
         turned towards it); ``fn`` where there are none. Round 94 (``rigid_fit.hollow_contact``): with it a
-        cylinder's foot (m along its axis from its centre; 0 but for its side, ``hol_side``), its normal then across
-        its axis."""
+        cylinder's foot (m along its axis from its centre) and ``hol_side`` where its side touches (else 0 and 0.0),
+        its normal then across its axis."""
         Rf = self.rb_R[f]
         q = Rf.transpose() @ (self.rb_c[r] - self.rb_c[f])
         e = Rf.transpose() @ (self.rb_R[r] @ self.hol_axis[r])
@@ -122,6 +122,7 @@ class Hollow:
         d_min, _W, _y, _S, _T, _Y1, _Y2 = self.hollow_sums(f, q, e, h, reach, 1.0e30, 0.0)
         out = fn
         foot = ti.cast(0.0, ti.f64)
+        side = ti.cast(0.0, ti.f64)
         if d_min < 1.0e29:
             _d, W, Ys, S, T, Y1, Y2 = self.hollow_sums(f, q, e, h, reach, d_min, HOLLOW_WINDOW * self.hol_s[f])
             y = Ys / W
@@ -135,5 +136,6 @@ class Hollow:
             if self.hol_side[r] > 0.0 and ti.abs(y.dot(e)) < h:   # round 94: a cylinder's side
                 m = (m - m.dot(e) * e).normalized()
                 foot = self.side_foot(W, Ys, T, Y1, Y2, m, m.dot(e), h, FOOT_BAND * self.hol_s[f])
+                side = self.hol_side[r]
             out = Rf @ m
-        return out, foot
+        return out, foot, side

@@ -80,9 +80,10 @@ class RigidFriction:
         supports farthest apart (the separating axis, ``rigid_support.round_normal``); ``n`` otherwise, with the
         switch off, or where no direction lies in the cone; round 92: too deep in the hull (a hollow), and round 93:
         where the row reads the body curved (``sup_curved``), the plane fit to its outer points (``hollow_normal``);
-        round 94: with it, a cylinder's foot on the fit (0 otherwise)."""
+        round 94: with it, a cylinder's foot on the fit and its side flag (0 and 0 otherwise)."""
         out = n
         foot = ti.cast(0.0, ti.f64)
+        side = ti.cast(0.0, ti.f64)
         if self.sup_cone <= 1.0 and self.sup_round[a] == 1.0 and self.sup_round[b] == 1.0:
             out = (self.rb_c[b] - self.rb_c[a]).normalized()
         elif self.sup_nd > 0 and (self.sup_round[a] > 0.0) != (self.sup_round[b] > 0.0):
@@ -108,12 +109,12 @@ class RigidFriction:
             if top < -ROUND_DEEP * hr:   # deeper in the other body's hull than a contact can be: concave, the nodes'
                 out = n
                 if self.sup_cone <= 1.0 and top > -1.0e29:   # round 92: in a hollow, from f's outer points
-                    fit, foot = self.hollow_normal(f, r, fn)
+                    fit, foot, side = self.hollow_normal(f, r, fn)
                     out = sg * fit
             elif top > -1.0e29 and self.sup_curved[best] > 0.0:   # round 93: a curved face, the fit from its row
-                fit, foot = self.hollow_normal(f, r, sg * out)
+                fit, foot, side = self.hollow_normal(f, r, sg * out)
                 out = sg * fit
-        return out, foot
+        return out, foot, side
 
     @ti.func
     def pair_gap(self, a, b, n):
@@ -276,7 +277,7 @@ class RigidFriction:
             W = self.pair_acc[0]
             n = ti.Vector([self.pair_acc[4], self.pair_acc[5], self.pair_acc[6]])
             if W > 0.0 and n.norm() > 0.0:
-                n, foot = self.round_normal(a, b, n / n.norm())   # round 91: one round body, from the supports
+                n, foot, side = self.round_normal(a, b, n / n.norm())   # round 91: one round body, from the supports
                 x_c = ti.Vector([self.pair_acc[1], self.pair_acc[2], self.pair_acc[3]]) / W
                 MA, MB = self.rb_M[a], self.rb_M[b]
                 VA, VB, wA, wB = self.rb_V[a], self.rb_V[b], self.rb_w[a], self.rb_w[b]
@@ -305,6 +306,8 @@ class RigidFriction:
                     # round 65: a round body rolls (rigid_support.pair_flatness) on its surface (contact_plane)
                     row_a, row_b = self.body_row(a, RA, n), self.body_row(b, RB, -n)
                     f = ti.min(self.flat_at(a, row_a, RA, t), self.flat_at(b, row_b, RB, t))
+                    if side == 1.0:   # round 94: a point at a cylinder's foot holds no tipping moment
+                        f = 0.0
                     if f < 1.0:
                         x_c = self.roll_point(a, b, row_a, row_b, n, x_c)
                         rA, rB = x_c - self.rb_c[a], x_c - self.rb_c[b]

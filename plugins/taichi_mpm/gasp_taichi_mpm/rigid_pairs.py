@@ -38,8 +38,9 @@ class RigidPairs(Hollow, Foot):
         self.pair_islands = bool(ISLANDS)   # round 81: the GPU schedule's islands (rigid_pairs_gpu)
         self.pair_pad = float(NODE_PAD)
         self.pair_rows = ti.field(ti.i32, shape=2 * ns)   # round 65: each slot's two table rows
-        # round 91: the approach each slot may keep (pair_normal); round 94: its cylinder's foot (2 per slot)
-        self.pair_allow = ti.field(ti.f64, shape=2 * ns)
+        # round 91: the approach each slot may keep (pair_normal); round 94: its cylinder's foot and side flag (3 per
+        # slot)
+        self.pair_allow = ti.field(ti.f64, shape=3 * ns)
         # round 81, the GPU schedule's islands (rigid_pairs_gpu): each listed pair's height, the bodies' union-find
         # roots, each root's island, each ordered pair's island, the islands' counts, starts and fill, their pairs
         self.pair_key = ti.field(ti.f64, shape=ns)
@@ -253,7 +254,7 @@ class RigidPairs(Hollow, Foot):
         nb = self.n_bodies
         a, b = s // nb, s - (s // nb) * nb
         nn = ti.Vector([self.pair_acc[7 * s + 4], self.pair_acc[7 * s + 5], self.pair_acc[7 * s + 6]])
-        nn, foot = self.round_normal(a, b, nn / ti.max(nn.norm(), 1.0e-300))
+        nn, foot, side = self.round_normal(a, b, nn / ti.max(nn.norm(), 1.0e-300))
         armA, armB = self.foot_arms(a, b, foot)   # round 94: x_c onto a cylinder's foot
         W = self.pair_acc[7 * s]
         x_c = self.foot_point(ti.Vector([self.pair_acc[7 * s + 1], self.pair_acc[7 * s + 2],
@@ -261,9 +262,10 @@ class RigidPairs(Hollow, Foot):
         for ax in ti.static(range(3)):
             self.pair_acc[7 * s + 4 + ax] = nn[ax]
             self.pair_acc[7 * s + 1 + ax] = x_c[ax] * W
-        self.pair_allow[2 * s] = self.allowed_approach(self.pair_gap(a, b, nn),
+        self.pair_allow[3 * s] = self.allowed_approach(self.pair_gap(a, b, nn),
                                                        (self.rb_V[a] - self.rb_V[b]).dot(nn))
-        self.pair_allow[2 * s + 1] = foot
+        self.pair_allow[3 * s + 1] = foot
+        self.pair_allow[3 * s + 2] = side
         return nn
 
     @ti.func
@@ -288,10 +290,10 @@ class RigidPairs(Hollow, Foot):
             eye = ti.Matrix.identity(ti.f64, 3)
             iA = (RA @ self.rb_I0[a] @ RA.transpose() + half * MA * eye).inverse()
             iB = (RB @ self.rb_I0[b] @ RB.transpose() + half * MB * eye).inverse()
-            # round 94 (foot.py): at a cylinder's foot (pair_allow[2 s + 1], pair_normal's; x_c moved onto it there)
-            armA, armB = self.foot_arms(a, b, self.pair_allow[2 * s + 1])
+            # round 94 (foot.py): at a cylinder's foot (pair_allow[3 s + 1], pair_normal's; x_c moved onto it there)
+            armA, armB = self.foot_arms(a, b, self.pair_allow[3 * s + 1])
             un = self.foot_approach(self.rb_V[a], self.rb_w[a], self.rb_V[b], self.rb_w[b], armA, armB, n)
-            P = ti.max(self.pair_lam[4 * s] + (un - self.pair_allow[2 * s]) / self.foot_mass(MA, MB, iA, iB, armA, armB,
+            P = ti.max(self.pair_lam[4 * s] + (un - self.pair_allow[3 * s]) / self.foot_mass(MA, MB, iA, iB, armA, armB,
                                                                                             n), 0.0)   # round 91
             dP = P - self.pair_lam[4 * s]
             self.pair_lam[4 * s] = P
@@ -305,6 +307,8 @@ class RigidPairs(Hollow, Foot):
             lt = ut.norm()
             row_a, row_b = self.pair_rows[2 * s], self.pair_rows[2 * s + 1]   # round 65: a round body rolls
             f = self.roll_flat(a, b, row_a, row_b, RA, RB, n, ut, lt, self.rb_w[a] - self.rb_w[b])
+            if self.pair_allow[3 * s + 2] == 1.0:   # round 94: a point at a cylinder's foot holds no tipping moment
+                f = 0.0
             if f < 1.0:
                 x_c = self.roll_point(a, b, row_a, row_b, n, x_c)
                 rA, rB = x_c - self.rb_c[a], x_c - self.rb_c[b]

@@ -162,7 +162,7 @@ def build_rigid_pair(Ft):
         ln = wp.length(n)
         if W > wp.float64(0.0) and ln > wp.float64(0.0):
             # round 91: the normal from the shapes; with a gap known, only the approach that closes it this substep
-            n, foot = round_normal(t_dirs, t_h, t_round, nd, cos_cone, a, b, rot[a], rot[b], centre[a], centre[b],
+            n, foot, side = round_normal(t_dirs, t_h, t_round, nd, cos_cone, a, b, rot[a], rot[b], centre[a], centre[b],
                                    n / ln, hol)
             g = pair_gap(t_dirs, t_h, t_round, nd, cos_cone, a, b, rot[a], rot[b], centre[a], centre[b], n, hol)
             x_c = vec3d(acc[1], acc[2], acc[3]) / W
@@ -198,6 +198,8 @@ def build_rigid_pair(Ft):
                 # round 65: a round body rolls (gasp_core.mpm.rigid_support.pair_flatness) on its surface
                 # (contact_plane): the contact point moved onto it, the slip taken there; f 1 as before
                 f = roll_flat(t_dirs, t_h, t_curv, t_delta, nd, a, b, RA, RB, n, ut, lt, vec3d())
+                if side == wp.float64(1.0):   # round 94: a point at a cylinder's foot holds no tipping moment
+                    f = wp.float64(0.0)
                 if f < wp.float64(1.0):
                     x_c = roll_point(t_dirs, t_h, t_round, nd, a, b, RA, RB, centre[a], centre[b], n, x_c)
                     rA, rB, ut = slip_at(x_c, VA, wA, centre[a], VB, wB, centre[b], n)

@@ -87,10 +87,10 @@ def build_pair_update(Ft):
             IB = rot[b] * inertia0[b] * wp.transpose(rot[b]) + half * MB * eye
             iA = wp.inverse(IA)
             iB = wp.inverse(IB)
-            # round 94 (foot.py): at a cylinder's foot (allow[2 s + 1], pair_normal's; x_c moved onto it there)
-            armA, armB = foot_arms(t_round, hol, a, b, rot[a], rot[b], allow[2 * s + 1])
+            # round 94 (foot.py): at a cylinder's foot (allow[3 s + 1], pair_normal's; x_c moved onto it there)
+            armA, armB = foot_arms(t_round, hol, a, b, rot[a], rot[b], allow[3 * s + 1])
             un = foot_approach(vel[a], spin[a], vel[b], spin[b], armA, armB, n)
-            P = wp.max(lam[4 * s] + (un - allow[2 * s]) / foot_mass(MA, MB, iA, iB, armA, armB, n),
+            P = wp.max(lam[4 * s] + (un - allow[3 * s]) / foot_mass(MA, MB, iA, iB, armA, armB, n),
                        wp.float64(0.0))
             dP = P - lam[4 * s]
             lam[4 * s] = P
@@ -106,6 +106,8 @@ def build_pair_update(Ft):
             # round 65: a round body rolls (rigid_pairs._pair_update's flat and plane)
             f = roll_flat_at(t_h, t_curv, t_delta, a, b, rows[2 * s], rows[2 * s + 1], rot[a], rot[b], n, ut, lt,
                              spin[a] - spin[b])
+            if allow[3 * s + 2] == wp.float64(1.0):   # round 94: a point at a cylinder's foot holds no tipping moment
+                f = wp.float64(0.0)
             if f < wp.float64(1.0):
                 x_c = roll_point_at(t_h, t_round, a, b, rows[2 * s], rows[2 * s + 1], centre[a], centre[b], n, x_c)
                 rA, rB, ut = slip_at(x_c, vel[a], spin[a], centre[a], vel[b], spin[b], centre[b], n)
@@ -161,7 +163,7 @@ def pair_normal(acc: wp.array(dtype=wp.float64), s: int, nb: int, t_dirs: wp.arr
     b = s - a * nb
     nn = vec3d(acc[7 * s + 4], acc[7 * s + 5], acc[7 * s + 6])
     nn = nn / wp.max(wp.length(nn), wp.float64(1.0e-300))
-    nn, foot = round_normal(t_dirs, t_h, t_round, nd, cos_cone, a, b, rot[a], rot[b], centre[a], centre[b], nn, hol)
+    nn, foot, side = round_normal(t_dirs, t_h, t_round, nd, cos_cone, a, b, rot[a], rot[b], centre[a], centre[b], nn, hol)
     armA, armB = foot_arms(t_round, hol, a, b, rot[a], rot[b], foot)   # round 94: x_c onto a cylinder's foot
     x_c = foot_point(vec3d(acc[7 * s + 1], acc[7 * s + 2], acc[7 * s + 3]) / acc[7 * s], centre[a], centre[b], armA,
                      armB)
@@ -169,8 +171,9 @@ def pair_normal(acc: wp.array(dtype=wp.float64), s: int, nb: int, t_dirs: wp.arr
         acc[7 * s + 4 + ax] = nn[ax]
         acc[7 * s + 1 + ax] = x_c[ax] * acc[7 * s]
     gap = pair_gap(t_dirs, t_h, t_round, nd, cos_cone, a, b, rot[a], rot[b], centre[a], centre[b], nn, hol)
-    allow[2 * s] = allowed_approach(gap, wp.dot(vel[a] - vel[b], nn), dt)
-    allow[2 * s + 1] = foot
+    allow[3 * s] = allowed_approach(gap, wp.dot(vel[a] - vel[b], nn), dt)
+    allow[3 * s + 1] = foot
+    allow[3 * s + 2] = side
     return nn
 
 
@@ -257,8 +260,8 @@ def allocate_pairs(eng, view) -> None:
     eng.pair_rows = wp.zeros(2 * ns, dtype=wp.int32, device=d)   # round 65: each slot's two table rows
     nbi = nb if many else 1   # round 81: the gpu schedule's islands (build_rigid_pairs_gpu)
     eng.pair_key = wp.zeros(ns, dtype=wp.float64, device=d)
-    # round 91: the approach each slot may keep; round 94: its cylinder's foot (2 per slot)
-    eng.pair_allow = wp.zeros(2 * ns, dtype=wp.float64, device=d)
+    # round 91: the approach each slot may keep; round 94: its cylinder's foot and side flag (3 per slot)
+    eng.pair_allow = wp.zeros(3 * ns, dtype=wp.float64, device=d)
     eng.pair_isl = wp.zeros(ns, dtype=wp.int32, device=d)
     eng.pair_isl_list = wp.zeros(ns, dtype=wp.int32, device=d)
     eng.pair_root, eng.pair_isl_of = (wp.zeros(nbi, dtype=wp.int32, device=d) for _ in range(2))

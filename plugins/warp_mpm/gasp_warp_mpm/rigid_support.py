@@ -34,7 +34,7 @@ class Hollow:
     ``corg``, size ``csize`` and ``cdims`` ``[nx, ny, nz, first cell]``), each body's point spacing (m), and a round
     body's radius, half-length (m) and rest axis (zeros: a sphere's); round 93: ``curved``, per table row 1.0 where
     the body reads curved there (``gasp_core.mpm.rigid_support.curved_rows``); round 94: ``side``, per body 1.0 for a
-    cylinder whose side takes its foot (``gasp_core.mpm.rigid_fit.CYL_SIDE``)."""
+    cylinder whose side takes its foot as a point, 2.0 its foot alone (``gasp_core.mpm.hollow.hollow_data``)."""
     X: wp.array(dtype=vec3d)
     cstart: wp.array(dtype=wp.int32)
     corg: wp.array(dtype=vec3d)
@@ -238,8 +238,8 @@ def hollow_normal(hol: Hollow, f: int, r: int, Rf: mat33d, Rr: mat33d, cf: vec3d
     # (a cylinder's axis), the least spread of f's outer points within d_min + WINDOW s of it, of those within its
     # radius + REACH s, weighted (1 - (d - d_min) / (WINDOW s))^2 (power steps of tr(C) I - C from the nodes' fn,
     # turned towards cr); fn where there are none. Only the cells within the reach are read (hollow_sums). Round 94
-    # (gasp_core.mpm.rigid_fit.hollow_contact): with it, a cylinder's foot (m along its axis from cr; 0 but for its
-    # side, hol.side), its normal then across its axis.
+    # (gasp_core.mpm.rigid_fit.hollow_contact): with it, a cylinder's foot (m along its axis from cr) and hol.side
+    # where its side touches (else 0 and 0.0), its normal then across its axis.
     q = wp.transpose(Rf) * (cr - cf)
     e = wp.transpose(Rf) * (Rr * hol.axis[r])
     h = hol.half[r]
@@ -247,6 +247,7 @@ def hollow_normal(hol: Hollow, f: int, r: int, Rf: mat33d, Rr: mat33d, cf: vec3d
     d_min, W0, y0, S0, T0, Y10, Y20 = hollow_sums(hol, f, q, e, h, reach, wp.float64(1.0e30), wp.float64(0.0))
     out = fn
     foot = wp.float64(0.0)
+    side = wp.float64(0.0)
     if d_min < wp.float64(1.0e29):
         dm, W, Ys, S, T, Y1, Y2 = hollow_sums(hol, f, q, e, h, reach, d_min, WINDOW * hol.spacing[f])
         y = Ys / W
@@ -260,8 +261,9 @@ def hollow_normal(hol: Hollow, f: int, r: int, Rf: mat33d, Rr: mat33d, cf: vec3d
         if hol.side[r] > wp.float64(0.0) and wp.abs(wp.dot(y, e)) < h:   # round 94: a cylinder's side
             m = wp.normalize(m - wp.dot(m, e) * e)
             foot = side_foot(W, Ys, T, Y1, Y2, m, wp.dot(m, e), h, BAND * hol.spacing[f])
+            side = hol.side[r]
         out = Rf * m
-    return out, foot
+    return out, foot, side
 
 
 @wp.func
@@ -274,9 +276,10 @@ def round_normal(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), rnd
     # otherwise, with the switch off (cos_cone > 1), or where no direction lies in the cone; round 92: too deep in the
     # hull for a contact (a hollow), a round body takes hollow_normal; round 93: so does one whose row reads the other
     # body curved there (hol.curved, rigid_support.curved_rows), started from the row; round 94: with it, a
-    # cylinder's foot on the fit (hollow_normal; 0 otherwise)
+    # cylinder's foot on the fit and its side flag (hollow_normal; 0 and 0 otherwise)
     out = n
     foot = wp.float64(0.0)
+    side = wp.float64(0.0)
     if cos_cone <= wp.float64(1.0) and rnd[a] == wp.float64(1.0) and rnd[b] == wp.float64(1.0):
         out = wp.normalize(cB - cA)
     elif nd > 0 and (rnd[a] > wp.float64(0.0)) != (rnd[b] > wp.float64(0.0)):
@@ -314,12 +317,12 @@ def round_normal(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), rnd
         if top < -DEEP * hr:   # deeper in the other body's hull than a contact can be: a concave part, the nodes' n
             out = n
             if cos_cone <= wp.float64(1.0) and top > wp.float64(-1.0e29):
-                fit, foot = hollow_normal(hol, f, r, Rf, Rr, cf, cr, fn)
+                fit, foot, side = hollow_normal(hol, f, r, Rf, Rr, cf, cr, fn)
                 out = sg * fit
         elif top > wp.float64(-1.0e29) and hol.curved[best] > wp.float64(0.0):   # round 93: a curved face, the fit
-            fit, foot = hollow_normal(hol, f, r, Rf, Rr, cf, cr, sg * out)
+            fit, foot, side = hollow_normal(hol, f, r, Rf, Rr, cf, cr, sg * out)
             out = sg * fit
-    return out, foot
+    return out, foot, side
 
 
 @wp.func
