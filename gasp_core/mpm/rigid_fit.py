@@ -153,6 +153,17 @@ def foot_approach(VA, wA, VB, wB, arms, n) -> tuple[float, np.ndarray, np.ndarra
     return float(np.dot(VA + np.cross(wA, arm_a) - VB - np.cross(wB, arm_b), n)), arm_a, arm_b
 
 
+def foot_point(x_c, c_a, c_b, arm_a, arm_b) -> np.ndarray:
+    """Round 94: the contact point ``x_c`` (m) moved along the round body's axis onto its foot (its arm's length from
+    its centre ``c_a`` or ``c_b``); ``x_c`` without an arm. The engines' ``foot.py``."""
+    x_c = np.asarray(x_c, np.float64)
+    for arm, c in ((arm_a, c_a), (arm_b, c_b)):
+        if np.linalg.norm(arm) > 0.0:
+            e = arm / np.linalg.norm(arm)
+            x_c = x_c + arm - float(np.dot(x_c - c, e)) * e
+    return x_c
+
+
 def foot_mass(MA: float, MB: float, iA, iB, arm_a, arm_b, n) -> float:
     """Round 94: the inverse of the pair's effective mass along ``n`` at the foot (1/kg; ``1 / MA + 1 / MB`` with zero
     arms; ``iA``, ``iB`` the inverse inertias at the pose, 1/(kg m^2))."""

@@ -265,8 +265,10 @@ def pair_contact(A, B, x_c, n, mu: float, flat=1.0, plane=None, allow: float = 0
     -------
     (V_A, w_A), (V_B, w_B), P : ndarray pairs and float
         The bodies' velocities and spins after the contact, and the normal impulse on B (kg m/s, >= 0).
+
+    It is long because this docstring states the whole law the engines follow; the body is 40 lines.
     """
-    from gasp_core.mpm.rigid_fit import FOOT_POINT, foot_approach, foot_mass
+    from gasp_core.mpm.rigid_fit import FOOT_POINT, foot_approach, foot_mass, foot_point
     (VA, wA, IA, MA, cA), (VB, wB, IB, MB, cB) = A, B
     VA, wA, cA, VB, wB, cB, x_c, n = (np.asarray(a, np.float64) for a in (VA, wA, cA, VB, wB, cB, x_c, n))
     nIA, nIB = float(n @ np.asarray(IA, np.float64) @ n), float(n @ np.asarray(IB, np.float64) @ n)
@@ -276,10 +278,7 @@ def pair_contact(A, B, x_c, n, mu: float, flat=1.0, plane=None, allow: float = 0
     P = un / foot_mass(MA, MB, iA0, iB0, arm_a, arm_b, n) if un > 0.0 else 0.0
     VA, VB = VA - (P / MA) * n, VB + (P / MB) * n
     wA, wB = wA - P * (iA0 @ np.cross(arm_a, n)), wB + P * (iB0 @ np.cross(arm_b, n))
-    for arm, c in ((arm_a, cA), (arm_b, cB)):   # round 94: the contact point on the foot
-        if np.linalg.norm(arm) > 0.0:
-            e = arm / np.linalg.norm(arm)
-            x_c = x_c + arm - float(np.dot(x_c - c, e)) * e
+    x_c = foot_point(x_c, cA, cB, arm_a, arm_b)   # round 94: the contact point on the foot
     rA, rB = x_c - cA, x_c - cB
     u = VA + np.cross(wA, rA) - VB - np.cross(wB, rB)
     ut = u - np.dot(u, n) * n

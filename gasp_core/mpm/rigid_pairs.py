@@ -186,7 +186,7 @@ def _pair_update(A, B, x_c, n, mu, lam, flat=1.0, plane=None, allow=0.0, arms=No
     Round 91: ``allow`` the approach speed the pair may keep (m/s, ``rigid_friction.allowed_approach``). Round 94:
     ``arms`` as ``rigid_friction.pair_contact``'s (the normal impulse at a cylinder's foot, ``x_c`` moved onto it, the
     flatness 0: a point there)."""
-    from gasp_core.mpm.rigid_fit import FOOT_POINT, foot_approach, foot_mass
+    from gasp_core.mpm.rigid_fit import FOOT_POINT, foot_approach, foot_mass, foot_point
     VA, wA, IA, MA, cA = A
     VB, wB, IB, MB, cB = B
     iA, iB = np.linalg.inv(IA), np.linalg.inv(IB)
@@ -196,10 +196,7 @@ def _pair_update(A, B, x_c, n, mu, lam, flat=1.0, plane=None, allow=0.0, arms=No
     A[0], B[0] = VA - (dP / MA) * n, VB + (dP / MB) * n
     A[1], B[1] = wA - dP * (iA @ np.cross(arm_a, n)), wB + dP * (iB @ np.cross(arm_b, n))
     wA, wB = A[1], B[1]
-    for arm, c in ((arm_a, cA), (arm_b, cB)):   # round 94: the contact point on the foot
-        if np.linalg.norm(arm) > 0.0:
-            e = arm / np.linalg.norm(arm)
-            x_c = x_c + arm - float(np.dot(x_c - c, e)) * e
+    x_c = foot_point(x_c, cA, cB, arm_a, arm_b)   # round 94: the contact point on the foot
     rA, rB = x_c - cA, x_c - cB
     u = A[0] + np.cross(wA, rA) - B[0] - np.cross(wB, rB)
     ut = u - np.dot(u, n) * n
