@@ -2,7 +2,9 @@
 dome"): the normal of a round rigid body's contact with another rigid body from that body's own outer points nearest
 it, a plane fit, where its support table cannot give it (a hollow: the table is the hull; a curved face: its rows
 are about 12 degrees apart). :mod:`gasp_core.mpm.rigid_support` decides where (and re-exports these names);
-:mod:`gasp_core.mpm.hollow` keeps the points.
+:mod:`gasp_core.mpm.hollow` keeps the points. Round 94 (``docs/rigid.md`` "Round 94: a cylinder's foot"): where a
+solid cylinder's side touches, its foot along its axis (:func:`side_foot`), and the pair law's push there
+(:func:`foot_approach`, :func:`foot_mass`, :func:`foot_point`; the engines' ``foot.py``).
 """
 from __future__ import annotations
 
