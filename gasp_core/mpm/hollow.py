@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from gasp_core.mpm import rigid_fit
+import gasp_core.mpm.rigid_fit as rigid_fit
 from gasp_core.mpm.rigid_fit import HOLLOW_POWER_STEPS, HOLLOW_WINDOW, hollow_normal  # noqa: F401 (re-exported)
 
 #: 1: the rule above; 0: the touching nodes' normal in a concave part (round 91's, the broken variant).

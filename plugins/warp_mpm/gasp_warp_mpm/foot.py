@@ -10,7 +10,7 @@ as type objects.
 """
 import warp as wp
 
-from .rigid_support import Hollow, mat33d, vec3d
+from .rigid_support import Hollow, allowed_approach, mat33d, vec3d
 
 
 @wp.func
@@ -46,6 +46,19 @@ def foot_point(x_c: vec3d, cA: vec3d, cB: vec3d, armA: vec3d, armB: vec3d):
 def foot_approach(VA: vec3d, wA: vec3d, VB: vec3d, wB: vec3d, armA: vec3d, armB: vec3d, n: vec3d):
     # the approach along n (m/s) of A's point at the foot to B's (through the centres where the arms are zero)
     return wp.dot(VA + wp.cross(wA, armA) - VB - wp.cross(wB, armB), n)
+
+
+@wp.func
+def foot_push(VA: vec3d, wA: vec3d, VB: vec3d, wB: vec3d, MA: wp.float64, MB: wp.float64, iA: mat33d, iB: mat33d,
+              armA: vec3d, armB: vec3d, n: vec3d, gap: wp.float64, dt: wp.float64):
+    # the two-body law's normal impulse P (rigid_friction.rigid_pair; gasp_core.mpm.rigid_friction.pair_contact): the
+    # approach at the foot less round 91's allowed one (allowed_approach) removed, the velocities and spins after it
+    un = foot_approach(VA, wA, VB, wB, armA, armB, n)
+    un = un - allowed_approach(gap, un, dt)
+    P = wp.float64(0.0)
+    if un > wp.float64(0.0):
+        P = un / foot_mass(MA, MB, iA, iB, armA, armB, n)
+    return VA - (P / MA) * n, wA - P * (iA * wp.cross(armA, n)), VB + (P / MB) * n, wB + P * (iB * wp.cross(armB, n)), P
 
 
 @wp.func

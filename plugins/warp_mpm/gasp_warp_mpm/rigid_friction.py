@@ -12,8 +12,8 @@ import warp as wp
 from gasp_core.mpm.rigid_friction import FLAT_FROM, FLAT_TO, TIP_SHARED
 
 from .precision import MODULE_OPTIONS, build_types
-from .foot import foot_approach, foot_arms, foot_mass, foot_point
-from .rigid_support import (Hollow, allowed_approach, body_inv, pair_gap, roll_flat, roll_point, round_normal, slip_at,
+from .foot import foot_arms, foot_point, foot_push
+from .rigid_support import (Hollow, body_inv, pair_gap, roll_flat, roll_point, round_normal, slip_at,
                             tip)
 
 vec3d = wp.types.vector(3, wp.float64)
@@ -176,15 +176,7 @@ def build_rigid_pair(Ft):
             armA, armB = foot_arms(t_round, hol, a, b, rot[a], rot[b], foot)
             iA = body_inv(inertia0[a], rot[a], MA, wp.float64(0.5) * dx * dx)
             iB = body_inv(inertia0[b], rot[b], MB, wp.float64(0.5) * dx * dx)
-            un = foot_approach(VA, wA, VB, wB, armA, armB, n)
-            un = un - allowed_approach(g, un, dt)
-            P = wp.float64(0.0)
-            if un > wp.float64(0.0):   # the approach removed
-                P = un / foot_mass(MA, MB, iA, iB, armA, armB, n)
-            VA = VA - (P / MA) * n
-            VB = VB + (P / MB) * n
-            wA = wA - P * (iA * wp.cross(armA, n))
-            wB = wB + P * (iB * wp.cross(armB, n))
+            VA, wA, VB, wB, P = foot_push(VA, wA, VB, wB, MA, MB, iA, iB, armA, armB, n, g, dt)
             x_c = foot_point(x_c, centre[a], centre[b], armA, armB)
             rA = x_c - centre[a]
             rB = x_c - centre[b]

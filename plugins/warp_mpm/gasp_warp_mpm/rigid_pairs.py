@@ -64,7 +64,9 @@ def build_node_slot(Ft):
 @functools.cache
 def build_pair_update(Ft):
     """``pair_update`` (float64; ``gasp_core.mpm.rigid_pairs._pair_update``): slot ``s``'s normal impulse ``lam[4 s]``
-    >= 0 (on its approach less round 91's ``allow``), friction ``lam[4 s + 1 : 4 s + 4]`` in the disk, ``f`` held."""
+    >= 0 (on its approach less round 91's ``allow``; round 94: at a cylinder's foot), friction ``lam[4 s + 1 : 4 s +
+    4]`` in the disk, ``f`` held. It is long because the update's steps (the normal impulse, the rolling, the
+    friction, the held tipping spin) share one function's locals, as the NumPy reference's do."""
 
     @wp.func
     def pair_update(s: int, nb: int, half: wp.float64, mass: wp.array(dtype=wp.float64),

@@ -101,6 +101,8 @@ LOOP_BOUNDS = {
     "range(hol.cstart[g], hol.cstart[g + 1])": "round 92: one cell's outer points (4 point spacings across: tens of "
                                                "points; rigid_support.hollow_sums)",
     "range(POWER)": "round 92: the plane fit's power steps, rigid_support.HOLLOW_POWER_STEPS (24)",
+    "range(SAMPLES)": "round 94: the gap's samples along a cylinder's segment, rigid_fit.FOOT_SAMPLES (16; "
+                      "rigid_support.side_foot)",
     "range(n_on)": "the touching pairs, as the node kernel listed them (round 62, 63; rigid_pairs' one thread)",
     "range(n_isl)": "the islands of touching rigid bodies, at most n_bodies (round 81, rigid_pairs' islands)",
     "range(isl_start[i], isl_start[i + 1])": "an island's touching pairs (round 81, rigid_pairs' sweep, one thread "
