@@ -119,7 +119,8 @@ class Hollow:
         e = Rf.transpose() @ (self.rb_R[r] @ self.hol_axis[r])
         h = self.hol_half[r]
         reach = self.hol_radius[r] + HOLLOW_REACH * self.hol_s[f]
-        d_min, _W, _y, _S, _T, _Y1, _Y2 = self.hollow_sums(f, q, e, h, reach, 1.0e30, 0.0)
+        d_min, _W, _y, _S, _T, _Y1, _Y2 = self.hollow_sums(f, q, e, h, reach, ti.cast(1.0e30, ti.f64),
+                                                           ti.cast(0.0, ti.f64))
         out = fn
         foot = ti.cast(0.0, ti.f64)
         side = ti.cast(0.0, ti.f64)
