@@ -260,11 +260,10 @@ class RigidFriction:
 
     @ti.kernel
     def rigid_pair(self):
-        """The contact of two rigid bodies as one, by force balance (issue 67 item 4;
-        ``gasp_core.mpm.rigid_friction.pair_contact``, warp_mpm's ``rigid_friction.build_rigid_pair``, the same
-        steps), after ``rigid_update``: the touching nodes' sums ``pair_acc`` (``RigidPairs.pair_touch``) give the
-        contact's centre and normal; the mass centres' approach along it is removed through the centres (round 94: at a cylinder's foot,
-        ``foot.py``), then
+        """The contact of two rigid bodies as one, by force balance (issue 67 item 4; ``gasp_core.mpm.rigid_friction.
+        pair_contact``, warp_mpm's ``rigid_friction.build_rigid_pair``, the same steps), after ``rigid_update``: the
+        touching nodes' sums ``pair_acc`` (``RigidPairs.pair_touch``) give the contact's centre and normal; the mass
+        centres' approach along it is removed through the centres (round 94: at a cylinder's foot, ``foot.py``), then
         Coulomb's friction of that impulse at the centre (stick within ``mu P``, else slide at ``mu P``); the
         centres' advance of the substep follows the new velocities. ``pair_acc`` is cleared."""
         dt = ti.cast(self.dt[None], ti.f64)
