@@ -322,9 +322,8 @@ class RigidFriction:
                     gA, gB = ti.Vector.zero(ti.f64, 3), ti.Vector.zero(ti.f64, 3)
                     if f < 1.0:   # (1 - f) of the tipping moment turns each body through its full inverse inertia
                         tA, tB = rA.cross(t), rB.cross(t)
-                        eye = half * ti.Matrix.identity(ti.f64, 3)
-                        gA = (1.0 - f) * ((RA @ self.rb_I0[a] @ RA.transpose() + MA * eye).inverse() @ (tA - sA * n))
-                        gB = (1.0 - f) * ((RB @ self.rb_I0[b] @ RB.transpose() + MB * eye).inverse() @ (tB - sB * n))
+                        gA = (1.0 - f) * (iA0 @ (tA - sA * n))   # iA0, iB0: the normal's inverse inertias, above
+                        gB = (1.0 - f) * (iB0 @ (tB - sB * n))
                         k = k + (gA.dot(tA) + gB.dot(tB))
                     p = ti.min(lt / k, mu * P)
                     VA -= (p / MA) * t

@@ -205,8 +205,8 @@ def build_rigid_pair(Ft):
                 gA = vec3d()   # (1 - f) of the tipping moment turns each body through its full inverse inertia
                 gB = vec3d()
                 if f < wp.float64(1.0):
-                    gA = tip(f, body_inv(inertia0[a], RA, MA, wp.float64(0.5) * dx * dx), wp.cross(rA, t), n)
-                    gB = tip(f, body_inv(inertia0[b], RB, MB, wp.float64(0.5) * dx * dx), wp.cross(rB, t), n)
+                    gA = tip(f, iA, wp.cross(rA, t), n)   # iA, iB: the normal's inverse inertias, above
+                    gB = tip(f, iB, wp.cross(rB, t), n)
                     k = k + (wp.dot(gA, wp.cross(rA, t)) + wp.dot(gB, wp.cross(rB, t)))
                 p = wp.min(lt / k, mu * P)   # stick when within mu P, else slide at mu P
                 VA = VA - (p / MA) * t
