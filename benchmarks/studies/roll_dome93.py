@@ -92,7 +92,9 @@ def dome_points(s: float, sampling: str) -> np.ndarray:
         shell = RF.scan_sphere(DOME_C, DOME_R, n, seed=1)
     else:
         shell = DOME_C + DOME_R * rl.fibonacci_sphere(n)
-    inside = np.all((shell > BLOCK_LO) & (shell < BLOCK_HI), axis=1)
+    # The block's sides and the ground bound the Gaussians, its top does not (round 95): the mound's block is as high
+    # as its cap, and its top cut the scan's outward-jittered Gaussians within 5.6 cm of the cap's top, a flat there.
+    inside = np.all(shell > BLOCK_LO, axis=1) & np.all(shell[:, :2] < BLOCK_HI[:2], axis=1)
     return np.concatenate([shell[inside], x])
 
 
