@@ -60,6 +60,8 @@ SHAPES = {"dome": dict(DOME_R=0.2, DOME_C=np.array([0.22, 0.3, 0.05]), BLOCK_LO=
           "mound": dict(DOME_R=1.0, DOME_C=np.array([0.2, 0.3, -0.85]), BLOCK_LO=np.array([0.02, 0.02, 0.0]),
                         BLOCK_HI=np.array([0.58, 0.58, 0.15]), THETA0=3.0, THETA1=12.0, RUN_T=0.95, OFF=False)}
 DOME_R = DOME_C = BLOCK_LO = BLOCK_HI = THETA0 = THETA1 = RUN_T = OFF = None
+#: Round 95: the seed of the scan-like sampling of the dome's Gaussians (``roll_family88.scan_sphere``).
+SCAN_SEED = 1
 
 
 def use(shape: str) -> None:
@@ -89,7 +91,7 @@ def dome_points(s: float, sampling: str) -> np.ndarray:
         return x
     n = int(round(rl.N_SHELL * (DOME_R / 0.1) ** 2))
     if sampling == "scan":
-        shell = RF.scan_sphere(DOME_C, DOME_R, n, seed=1)
+        shell = RF.scan_sphere(DOME_C, DOME_R, n, seed=SCAN_SEED)
     else:
         shell = DOME_C + DOME_R * rl.fibonacci_sphere(n)
     # The block's sides and the ground bound the Gaussians, its top does not (round 95): the mound's block is as high
