@@ -195,7 +195,7 @@ def rock_problem(r: dict) -> str | None:
 def test_a_cylinder_rocks_on_a_dome_or_mound_with_the_boards_period(engine):
     """Board on a log: ``2 pi sqrt((I_x + m R^2) / (m g (R_s - R)))``, 0.145 s on the mound and 0.366 s on the dome,
     within ``rock_foot94.TOL`` (5 %), two-sided; the dome's with a third rigid body too (the many-body law); the
-    scan-like mound's (round 95) the mean over ``rock_foot94.SEEDS`` of its scan, each seed within ``SEED_TOL``."""
+    scan-like cases' (round 95) the mean over ``rock_foot94.SEEDS`` of the scan, each seed within ``SEED_TOL``."""
     pytest.importorskip(f"gasp_{engine}")
     import rock_foot94 as RK
     bad = [p for p in (rock_problem(RK.judged_row(engine, *case)) for case in RK.family()) if p]
