@@ -126,7 +126,7 @@ def top_share_out(shape: str, clip_top: bool = False) -> float:
 @pytest.mark.parametrize("shape", ("dome", "mound"))
 def test_the_studys_scan_like_surface_is_jittered_both_ways_at_its_top(shape):
     """Round 95: the closed forms take the sphere, so a scan's jitter about it must be two-sided where the bodies touch
-    (about half out; measured 0.53 and 0.58 of 70). Until round 95 the mound's block top, level with its cap's top,
+    (about half out; measured 0.53 and 0.58 of about 70). Until round 95 the mound's block top, level with its cap's top,
     cut the Gaussians jittered outwards more than the cap's drop within 5.6 cm of it: a flat where the rocking
     cylinder sits (it rocked 9 % fast) and the ball starts (it arrived 10-18 % late). The catch: that clip leaves
     0.09 out."""

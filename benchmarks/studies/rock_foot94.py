@@ -14,9 +14,9 @@ force, against mu 0.5).
 
 Judged: the period (twice the mean interval between the crossings of the axis's dip, less its linear trend, over
 the run, :data:`RUN_T`) within :data:`TOL` of the closed form, two-sided; a scan-like case's (round 95) the mean over
-:data:`SEEDS` of the scan, each seed within :data:`SEED_TOL` (:func:`seeded_row`). ``--third``: a rigid block (8 x 8 x 6 cm) at
-rest on the ground beside the dome, so that the engines take their law for three rigid bodies or more (the many-body
-pairs' sweep, ``rigid_pairs``) rather than the two bodies' one.
+:data:`SEEDS` of the scan, each seed within :data:`SEED_TOL` (:func:`seeded_row`). ``--third``: a rigid block
+(8 x 8 x 6 cm) at rest on the ground beside the dome, so that the engines take their law for three rigid bodies or
+more (the many-body pairs' sweep, ``rigid_pairs``) rather than the two bodies' one.
 
 Pushed through the centres (round 93, ``rigid_fit.CYL_SIDE`` 0) the cylinder has no righting moment; with the foot
 but a face's hold on the friction's moment across its axis (``rigid_fit.FOOT_POINT`` 0), it swung as if its contact
