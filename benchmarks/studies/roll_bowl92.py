@@ -42,6 +42,8 @@ import test_rolling as rl  # noqa: E402
 
 #: The block's bounds (m) and its density over the ball's.
 BLOCK_LO, BLOCK_HI, DENSITY_RATIO = np.array([0.02, 0.02, 0.0]), np.array([0.58, 0.58, 0.2]), 10.0
+#: Round 95: the seed of the scan-like sampling of the hollow's or trough's Gaussians.
+SCAN_SEED = 1
 
 
 def family() -> list[tuple[int, str, float, str]]:
@@ -66,7 +68,7 @@ def hollow_block(s: float, hollow: str, shape: str = "ball") -> np.ndarray:
         return np.concatenate([trough_gaussians(hollow), x])
     n = int(round(rl.N_SHELL * (rc.BOWL_R / 0.1) ** 2))
     if hollow == "scan":
-        shell = RF.scan_sphere(rc.BOWL_C, rc.BOWL_R, n, seed=1)
+        shell = RF.scan_sphere(rc.BOWL_C, rc.BOWL_R, n, seed=SCAN_SEED)
     else:
         shell = rc.BOWL_C + rc.BOWL_R * rl.fibonacci_sphere(n)
     inside = np.all((shell > BLOCK_LO) & (shell < BLOCK_HI), axis=1)
@@ -80,7 +82,7 @@ def trough_gaussians(hollow: str) -> np.ndarray:
     sp = math.sqrt(4.0 * math.pi / rl.N_SHELL) * 0.1
     n_phi, n_y = int(2 * math.pi * rc.BOWL_R / sp), int((BLOCK_HI[1] - BLOCK_LO[1]) / sp)
     if hollow == "scan":
-        rng = np.random.default_rng(1)
+        rng = np.random.default_rng(SCAN_SEED)
         phi = rng.uniform(0.0, 2 * math.pi, n_phi * n_y)
         y = rng.uniform(BLOCK_LO[1], BLOCK_HI[1], n_phi * n_y)
         r = rc.BOWL_R + rng.uniform(-sp / 4, sp / 4, n_phi * n_y)
