@@ -126,11 +126,6 @@ def row(engine: str, shape: str, n_grid: int, sampling: str, third: bool = False
             "problem": None if abs(err) <= TOL else f"period {100 * err:+.2f} %", "wall_s": time.time() - t0}
 
 
-def seeded(shape: str, sampling: str) -> bool:
-    """Whether a case is judged over :data:`SEEDS` (a scan-like one, either shape)."""
-    return sampling == "scan"
-
-
 def seeded_row(engine: str, shape: str, n_grid: int, sampling: str = "scan", third: bool = False,
                seeds=SEEDS) -> dict:
     """:func:`row` over the scan's ``seeds``: ``period`` their mean, ``err`` its error, ``seed_errs`` each seed's;
@@ -152,8 +147,8 @@ def seeded_row(engine: str, shape: str, n_grid: int, sampling: str = "scan", thi
 
 
 def judged_row(engine: str, shape: str, n_grid: int, sampling: str, third: bool = False) -> dict:
-    """The row a case is judged on: :func:`seeded_row` for a scan-like case, :func:`row` otherwise."""
-    return (seeded_row if seeded(shape, sampling) else row)(engine, shape, n_grid, sampling, third)
+    """The row a case is judged on: :func:`seeded_row` for a scan-like case (either shape), :func:`row` otherwise."""
+    return (seeded_row if sampling == "scan" else row)(engine, shape, n_grid, sampling, third)
 
 
 def seed_note(r: dict) -> str:

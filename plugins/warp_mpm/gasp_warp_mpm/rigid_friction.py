@@ -142,8 +142,8 @@ def build_rigid_contact(Ft):
 def build_rigid_pair(Ft):
     """``rigid_pair`` (float64; ``gasp_core.mpm.rigid_friction.pair_contact``, taichi_mpm's ``rigid_pair``), one thread
     after ``rigid_update``: the contact from the nodes' sums ``acc`` (cleared), the approach removed through the
-    centres (round 94: at a cylinder's foot, ``foot.foot_push``), Coulomb's friction (round 65: a round body rolls, the support tables ``t_*``); the centres advance. It is
-    long because the law's steps (round 91's normal and gap, the approach, the friction, the rolling, the advance)
+    centres (round 94: at a cylinder's foot, ``foot.foot_push``), Coulomb's friction (round 65: a round body rolls,
+    the support tables ``t_*``); the centres advance. It is long because the law's steps (round 91's normal and gap, the approach, the friction, the rolling, the advance)
     share the one kernel's locals, as taichi_mpm's ``rigid_pair`` does."""
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
