@@ -169,8 +169,11 @@ def main(argv=None) -> int:
                          "broken variant)")
     ap.add_argument("--only", default=None, help="n_grid,sampling,mu,hollow: one case (hollow: fibonacci, scan or "
                                                  "fill, the fill alone: a staircase)")
+    ap.add_argument("--seed", type=int, default=SCAN_SEED, help="round 95: the seed of the hollow's or trough's scan-like "
+                                                                 "Gaussians (SCAN_SEED)")
     ap.add_argument("--out", default=None, help="a new JSON file for the rows (refused if it exists)")
     a = ap.parse_args(argv)
+    globals()["SCAN_SEED"] = a.seed
     import gasp_core.mpm.hollow as hw
     hw.HOLLOW = a.hollow_rule
     out = RF.new_out(ap, a.out)

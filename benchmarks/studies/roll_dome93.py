@@ -234,8 +234,11 @@ def main(argv=None) -> int:
     ap.add_argument("--dome-rule", type=int, default=None,
                     help="gasp_core.mpm.rigid_support.CURVED (0: round 91's table rows on a curved face, the broken variant)")
     ap.add_argument("--only", default=None, help="n_grid,sampling,mu: one case (sampling fibonacci, scan or fill)")
+    ap.add_argument("--seed", type=int, default=SCAN_SEED, help="round 95: the seed of the dome's or mound's scan-like "
+                                                                 "Gaussians (SCAN_SEED)")
     ap.add_argument("--out", default=None, help="a new JSON file for the rows (refused if it exists)")
     a = ap.parse_args(argv)
+    globals()["SCAN_SEED"] = a.seed
     if a.dome_rule is not None:
         import gasp_core.mpm.rigid_support as rs
         rs.CURVED = a.dome_rule
