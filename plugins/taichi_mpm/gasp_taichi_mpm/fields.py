@@ -12,6 +12,7 @@ reads.
 import taichi as ti
 
 from gasp_core.mpm import fields as core_fields
+from gasp_core.mpm.face_share import face_share
 from gasp_core.mpm.fields import MIN_FRACTION, MIN_GRADIENT
 
 from .field_flip import FieldFlip
@@ -46,6 +47,7 @@ class Fields(PairTouch, PairPush, FieldFlip, FieldGround):
         self.allocate_pairs(int(pair))   # pair_acc; round 62: rigid bodies among three or more (rigid_pairs.py)
         self.field_mu = float(mu)
         self.field_touch = float(touch)
+        self.face = face_share(setup) if self.fields and setup is not None else 0.0   # round 96, read at compile
         self.in_a = ti.field(ti.i32, shape=max(4, len(in_a) if self.fields else 1))
         for b, a in enumerate(in_a if self.fields else []):
             self.in_a[b] = int(a)
@@ -227,6 +229,33 @@ class Fields(PairTouch, PairPush, FieldFlip, FieldGround):
                     out += self.mass_b(ti.Vector([I[0], I[1], 2 * top - I[2]]))
         return out
 
+    @ti.func
+    def faced(self, I, grad_b, m_b):
+        """Round 96 (``gasp_core.mpm.face_share``): whether B's mass falls towards A at the inner node ``I``,
+        ``-grad_b . grad m_A > face m_b |grad m_A|`` (both central differences of the node masses, ``m_b`` B's mass
+        there); True where ``self.face`` is 0 (the rule off, as before round 96)."""
+        out = True
+        if ti.static(self.face > 0.0):
+            ex, ey, ez = ti.Vector([1, 0, 0]), ti.Vector([0, 1, 0]), ti.Vector([0, 0, 1])
+            ga = ti.Vector([self.grid_sv[I + ex][3] - self.grid_sv[I - ex][3],
+                            self.grid_sv[I + ey][3] - self.grid_sv[I - ey][3],
+                            self.grid_sv[I + ez][3] - self.grid_sv[I - ez][3]])
+            out = -grad_b.dot(ga) > ti.cast(self.face, self.real) * m_b * ga.norm()
+        return out
+
+    @ti.func
+    def a_face(self, I, m):
+        """Round 96: where B shows no normal, whether the rule is on and A shows a face there (``|grad m_A| >
+        MIN_GRADIENT m``): the fields then keep their offsets instead of moving as one."""
+        out = False
+        if ti.static(self.face > 0.0):
+            ex, ey, ez = ti.Vector([1, 0, 0]), ti.Vector([0, 1, 0]), ti.Vector([0, 0, 1])
+            ga = ti.Vector([self.grid_sv[I + ex][3] - self.grid_sv[I - ex][3],
+                            self.grid_sv[I + ey][3] - self.grid_sv[I - ey][3],
+                            self.grid_sv[I + ez][3] - self.grid_sv[I - ez][3]])
+            out = ga.norm() > MIN_GRADIENT * m
+        return out
+
     @ti.kernel
     def field_contact(self):
         """Each shared node's offsets (``gasp_core.mpm.fields``): the Coulomb contact of the two fields, over the
@@ -276,7 +305,7 @@ class Fields(PairTouch, PairPush, FieldFlip, FieldGround):
                             self.pair_touch(I, m_a * m_b / m, nh, 0)
                     elif slot > 0:   # round 62: a pair of rigid bodies among three or more
                         self.pair_touch(I, m_a * m_b / m, nh, slot - 1)
-                    elif un > 0.0 and touch:   # approaching: no interpenetration, Coulomb friction along the surface
+                    elif un > 0.0 and touch and self.faced(I, n, m_b):   # approaching, where B shows A a face: Coulomb
                         ut = u - un * nh
                         lt = ut.norm()
                         q = un * nh + ut
@@ -298,7 +327,8 @@ class Fields(PairTouch, PairPush, FieldFlip, FieldGround):
                                     ti.atomic_add(self.grid_push[J], (m_bj * m_a / (m_a + mb_eff)) * q)
                                     layer = 1
                 else:
-                    u2 = ti.Vector.zero(self.real, 3)   # no normal: the fields move as one
+                    if not self.a_face(I, m):   # round 96: A's face in B's middle layer keeps the offsets
+                        u2 = ti.Vector.zero(self.real, 3)   # no normal: the fields move as one
             da = (m_b / ti.max(m, 1e-30)) * u2
             db = -(m_a / ti.max(m, 1e-30)) * u2
             if layer != 0:   # A against B's mass at both nodes, moving as one (pair_touch.py)

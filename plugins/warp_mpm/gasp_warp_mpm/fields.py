@@ -17,12 +17,14 @@ from gasp_core.mpm.contact import flowing_bodies
 from gasp_core.mpm import fields as core_fields, gap_touch as G
 from gasp_core.mpm.fields import (MIN_FRACTION, MIN_GRADIENT, body_pair, field_bodies, field_friction, flow_touch,
                                   gap_levels, node_friction, touch_fraction, a_node_friction)
+from gasp_core.mpm.face_share import face_share
 from gasp_core.mpm.flow_reach import flow_levels
 from gasp_core.mpm.shared_fields import shared_field_warning
 
 from . import ENGINE
 from .pair_touch import build_gap_curve, build_gap_touch, build_pair_funcs, build_pair_touch
 from .precision import MODULE_OPTIONS, build_types
+from .face import build_faced
 from .field_nodes import (allocate_box, box_launches, build_field_clear, build_field_old, build_field_shared,
                           shared_threads, sweep_args)
 from .rigid_pairs import allocate_pairs, build_node_slot, mat33d, slot_inputs, vec3d
@@ -163,6 +165,7 @@ def build_fields(Ft):
     coulomb, flow_layer = build_pair_funcs(Ft)
     node_pair = build_node_pair(Ft)
     node_slot = build_node_slot(Ft)
+    faced, a_face = build_faced(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def field_contact(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), grid_dv: wp.array(dtype=vec3),
@@ -175,7 +178,7 @@ def build_fields(Ft):
                       rot: wp.array(dtype=mat33d), box: wp.array(dtype=vec3d), nb: int, pad: wp.float64,
                       slots: wp.array(dtype=wp.int32), n_on: wp.array(dtype=wp.int32),
                       seen: wp.array(dtype=wp.int32), shared: wp.array(dtype=wp.int32),
-                      n_shared: wp.array(dtype=wp.int32), threads: int):
+                      n_shared: wp.array(dtype=wp.int32), threads: int, face: Ft):
         nn = n_grid * n_grid
         n_nodes = nn * n_grid
         n_on_grid = n_shared[0]   # round 63: the inner nodes where both fields have mass (field_nodes.field_shared)
@@ -223,14 +226,15 @@ def build_fields(Ft):
                         wp.atomic_add(pair_acc, 7 * (slot - 1), wr)
                         if pair > 1 and wp.atomic_add(seen, slot - 1, 1) == 0:   # round 63: listed the first time
                             slots[wp.atomic_add(n_on, 0, 1)] = slot - 1
-                    elif un > Ft(0.0) and touch:   # approaching: no interpenetration, Coulomb friction on the surface
+                    elif un > Ft(0.0) and touch and faced(grid_sv, node, n_grid, n, m_b, face):   # approaching, B's face
                         u2 = u - coulomb(u, nh, mu_n)
                         if flow and m_b < m_a:   # A's side: B's node behind it takes the reaction with this one's B
                             qm = flow_layer(grid_mv, grid_sv, flow_push, node, nh, nn, n_grid, pa, v_b, m_b, mu_n, u2)
                             u2 = vec3(qm[0], qm[1], qm[2])
                             mb_eff = qm[3]
                 else:
-                    u2 = vec3(Ft(0.0))   # no normal: the fields move as one
+                    if not a_face(grid_sv, node, n_grid, m, face):   # round 96: A's face in B's middle keeps them
+                        u2 = vec3(Ft(0.0))   # no normal: the fields move as one
                 dva = (m_b / m) * u2
                 dvb = -(m_a / m) * u2
                 if mb_eff > Ft(0.0):   # A against B's mass at both nodes, moving as one
@@ -371,7 +375,8 @@ def field_launches(eng, Ft) -> list:
                 eng.flow_touch, eng.flow_push, int(bool(core_fields.GROUND_MIRROR)), eng.field_rule % 2,
                 *([Ft(a) for a in (eng.node_mu[0], eng.node_mu[2], eng.node_mu[3])] if eng.node_mu else [Ft(0.0)] * 3),
                 eng.mu_on, *([Ft(a) for a in eng.a_mu[1:]] if eng.a_mu else [Ft(0.0)] * 3), eng.in_a,
-                *slot_inputs(eng), eng.shared_nodes, eng.n_shared, shared_threads(eng)])] + after + [
+                *slot_inputs(eng), eng.shared_nodes, eng.n_shared, shared_threads(eng), Ft(face_share(eng.setup))])
+            ] + after + [
             wp.launch(clear, dim=sweep[1], device=d, record_cmd=True, inputs=[
                 eng.grid_sv, eng.grid_vf, eng.n_shared, ng, *sweep])]
 

@@ -1,0 +1,98 @@
+"""Round 96 (issue 67 item 4, ``docs/contact.md`` "Round 96: a soft block on a thin soft support"): the block on a
+block of ``tests/test_block_on_block.py`` (a jelly block thrown at ``V0`` along a jelly support lying on a
+frictionless ground, E 1e5 Pa, rho 1000, the pair's coefficient 0.5) over the support's thickness in cells, the
+grid's offset against the bodies and the grid, judged by that test's closed form: the upper block slides
+``V0^2 / (2 mu g (1 + m1 / m2))`` on the support and the support takes the momentum.
+
+The family: n_grid 24, 32 and 48 in the 0.48 m box; the support 1, 1.5, 2 and 3 cells thick (its faces on node layers
+at offset 0 for whole cells); the grid shifted 0, 1/4 and 1/2 cell up against the bodies and the ground (the ground
+stays at z = 0); the upper block 6 x 6 cm across and 3 cells thick. ``--face-share 0`` runs the rule before round 96
+(``gasp_core.mpm.face_share.FACE_SHARE``), the catch.
+``python benchmarks/studies/thin_support96.py --engine warp_mpm --out benchmarks/results/thin_support96_warp.json``
+(refused if the file exists).
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT / "tests"))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import roll_family88 as RF  # noqa: E402
+import test_block_on_block as bb  # noqa: E402
+
+GRIDS = (24, 32, 48)
+SUPPORTS = (1.0, 1.5, 2.0, 3.0)
+SHIFTS = (0.0, 0.25, 0.5)
+UPPER = 3.0
+
+
+def setup(n_grid: int, support: float, shift: float, upper: float = UPPER, half: float = 0.03):
+    """The scene: the upper block (body 0, ``upper`` cells thick, ``2 half`` m across) thrown at ``bb.V0`` on a
+    support (body 1, 40 x 16 cm, ``support`` cells thick) on a frictionless ground at z = 0; the grid's lower corner
+    ``shift`` cells above ``bb.block_setup``'s."""
+    from gasp_core.seam.setup import Boundary, Material, SimSetup
+    from gasp_core.testing.helpers import box_points
+    dx = bb.SIDE / n_grid
+    lo = np.array([-0.12, -bb.SIDE / 2, (shift - 3.0) * dx])
+    h1, h0 = support * dx, upper * dx
+    xs, vs = box_points([-half, -half, h1], [half, half, h1 + h0], dx / 2)
+    xb, vb = box_points([-0.08, -0.08, 0.0], [0.32, 0.08, h1], dx / 2)
+    x = np.concatenate([xs, xb])
+    v = np.zeros_like(x)
+    v[:len(xs), 0] = bb.V0
+    mats = [Material("jelly", model="elastic", E=1.0e5, nu=0.3, rho=1000.0) for _ in range(2)]
+    s = SimSetup(x=x, v=v, p_vol=np.concatenate([np.full(len(xs), vs), np.full(len(xb), vb)]),
+                 body_id=np.concatenate([np.zeros(len(xs), int), np.ones(len(xb), int)]), materials=mats,
+                 gravity=np.array([0.0, 0.0, -bb.G]), domain_lo=lo, domain_hi=lo + bb.SIDE, n_grid=n_grid,
+                 frame_dt=1.0 / bb.FPS, boundaries=[Boundary("ground", height=0.0, friction=0.0)])
+    s.n_render = 0
+    return s
+
+
+def row(engine: str, n_grid: int, support: float, shift: float) -> dict:
+    """One case: the slide and the support's final speed against the closed forms (``bb.check``'s figures)."""
+    s = setup(n_grid, support, shift)
+    t0 = time.time()
+    d, v2 = bb.measure(engine, s)
+    d0, vf = bb.closed_form(s)
+    return {"engine": engine, "n_grid": n_grid, "support_cells": support, "shift": shift, "V0": bb.V0,
+            "slide": d, "slide_want": d0, "slide_err": d / d0 - 1.0, "lower": v2, "lower_want": vf,
+            "lower_err": v2 / vf - 1.0, "wall_s": time.time() - t0}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--engine", default="warp_mpm")
+    ap.add_argument("--grids", default=",".join(map(str, GRIDS)))
+    ap.add_argument("--face-share", type=float, default=None, help="gasp_core.mpm.face_share.FACE_SHARE (0: off)")
+    ap.add_argument("--v0", type=float, default=bb.V0, help="the upper block's throw, m/s")
+    ap.add_argument("--out", default=None, help="a new JSON file for the rows (refused if it exists)")
+    a = ap.parse_args(argv)
+    import gasp_core.mpm.face_share as fs
+    if a.face_share is not None:
+        fs.FACE_SHARE = a.face_share
+    bb.V0 = a.v0
+    out = RF.new_out(ap, a.out)
+    rows = []
+    for n_grid in map(int, a.grids.split(",")):
+        for support in SUPPORTS:
+            for shift in SHIFTS:
+                r = row(a.engine, n_grid, support, shift)
+                r["face_share"] = fs.FACE_SHARE
+                rows.append(r)
+                print(f"{a.engine} n_grid {n_grid} support {support} cells shift {shift}: slide "
+                      f"{100 * r['slide_err']:+.2f} %, support's speed {100 * r['lower_err']:+.2f} % "
+                      f"({r['wall_s']:.1f} s)", flush=True)
+    RF.write_rows(out, rows)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
