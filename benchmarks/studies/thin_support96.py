@@ -33,10 +33,11 @@ SHIFTS = (0.0, 0.25, 0.5)
 UPPER = 3.0
 
 
-def setup(n_grid: int, support: float, shift: float, upper: float = UPPER, half: float = 0.03):
+def setup(n_grid: int, support: float, shift: float, upper: float = UPPER, half: float = 0.03, rigid: str = ""):
     """The scene: the upper block (body 0, ``upper`` cells thick, ``2 half`` m across) thrown at ``bb.V0`` on a
     support (body 1, 40 x 16 cm, ``support`` cells thick) on a frictionless ground at z = 0; the grid's lower corner
-    ``shift`` cells above ``bb.block_setup``'s."""
+    ``shift`` cells above ``bb.block_setup``'s; ``rigid`` "upper" or "support": that body ``model = "rigid"`` (the
+    mixed pairs, a neighbour the face rule does not act on)."""
     from gasp_core.seam.setup import Boundary, Material, SimSetup
     from gasp_core.testing.helpers import box_points
     dx = bb.SIDE / n_grid
@@ -47,7 +48,8 @@ def setup(n_grid: int, support: float, shift: float, upper: float = UPPER, half:
     x = np.concatenate([xs, xb])
     v = np.zeros_like(x)
     v[:len(xs), 0] = bb.V0
-    mats = [Material("jelly", model="elastic", E=1.0e5, nu=0.3, rho=1000.0) for _ in range(2)]
+    mats = [Material("jelly", model="rigid" if rigid == ("upper", "support")[b] else "elastic", E=1.0e5, nu=0.3,
+                     rho=1000.0) for b in range(2)]
     s = SimSetup(x=x, v=v, p_vol=np.concatenate([np.full(len(xs), vs), np.full(len(xb), vb)]),
                  body_id=np.concatenate([np.zeros(len(xs), int), np.ones(len(xb), int)]), materials=mats,
                  gravity=np.array([0.0, 0.0, -bb.G]), domain_lo=lo, domain_hi=lo + bb.SIDE, n_grid=n_grid,
@@ -56,13 +58,13 @@ def setup(n_grid: int, support: float, shift: float, upper: float = UPPER, half:
     return s
 
 
-def row(engine: str, n_grid: int, support: float, shift: float) -> dict:
+def row(engine: str, n_grid: int, support: float, shift: float, rigid: str = "") -> dict:
     """One case: the slide and the support's final speed against the closed forms (``bb.check``'s figures)."""
-    s = setup(n_grid, support, shift)
+    s = setup(n_grid, support, shift, rigid=rigid)
     t0 = time.time()
     d, v2 = bb.measure(engine, s)
     d0, vf = bb.closed_form(s)
-    return {"engine": engine, "n_grid": n_grid, "support_cells": support, "shift": shift, "V0": bb.V0,
+    return {"engine": engine, "rigid": rigid, "n_grid": n_grid, "support_cells": support, "shift": shift, "V0": bb.V0,
             "slide": d, "slide_want": d0, "slide_err": d / d0 - 1.0, "lower": v2, "lower_want": vf,
             "lower_err": v2 / vf - 1.0, "wall_s": time.time() - t0}
 
@@ -72,6 +74,7 @@ def main(argv=None) -> int:
     ap.add_argument("--engine", default="warp_mpm")
     ap.add_argument("--grids", default=",".join(map(str, GRIDS)))
     ap.add_argument("--face-share", type=float, default=None, help="gasp_core.mpm.face_share.FACE_SHARE (0: off)")
+    ap.add_argument("--rigid", default="", help="upper or support: that body rigid (a mixed pair)")
     ap.add_argument("--v0", type=float, default=bb.V0, help="the upper block's throw, m/s")
     ap.add_argument("--out", default=None, help="a new JSON file for the rows (refused if it exists)")
     a = ap.parse_args(argv)
@@ -84,7 +87,7 @@ def main(argv=None) -> int:
     for n_grid in map(int, a.grids.split(",")):
         for support in SUPPORTS:
             for shift in SHIFTS:
-                r = row(a.engine, n_grid, support, shift)
+                r = row(a.engine, n_grid, support, shift, a.rigid)
                 r["face_share"] = fs.FACE_SHARE
                 rows.append(r)
                 print(f"{a.engine} n_grid {n_grid} support {support} cells shift {shift}: slide "
