@@ -10,8 +10,9 @@ Per substep, with :data:`RIGID_COLLIDER` on:
    velocity (no exchange: the rigid field's nodes never see the soft body's stress or approach). A node is in the
    body's band where both fields have mass there and it lies within :data:`BAND` cells of the body's points' box in
    the body's frame (``rigid_pairs.body_boxes``; 0.5: the body's surface, a quarter cell beyond its outer points, plus
-   a quarter cell); its normal ``n`` is field B's surface normal (the first pass's, round 22: the
-   larger body's face), turned to point out of the rigid body.
+   a quarter cell; round 96: :data:`FACE_BAND` where the rigid body is field B, a node there taken only where its
+   mass falls towards the soft body, :mod:`gasp_core.mpm.face_share`); its normal ``n`` is field B's surface normal
+   (the first pass's, round 22: the larger body's face), turned to point out of the rigid body.
 2. After the grid update (gravity, the particle contact's impulses, the boundaries), the body's velocity this substep
    ``V* = sum_i m_R v_R / sum_i m_R`` over the rigid field's nodes (what its points' G2P and projection would give
    it: its update and its ground contact of this substep); its spin ``w`` from its state.
@@ -79,6 +80,13 @@ MULTI = True
 #: The band: a node within this many cells of the rigid body's points' box, in its frame (Chebyshev): its surface, a
 #: quarter cell beyond its outer points, plus a quarter cell (measured at 0.5 only, ``docs/rigid.md`` "Round 63").
 BAND = 0.5
+#: Round 96 (``docs/contact.md`` "Round 96"): where the rigid body is field B (a soft body on a larger rigid one), the
+#: band reaches this many cells past its points' box, 0.75 past its surface, and takes only the nodes where its mass
+#: falls towards the soft body (:mod:`gasp_core.mpm.face_share`'s test). The node layer nearest its face lies within
+#: half a cell of it wherever the grid lies; 0.5 missed it half a cell off (a jelly block on a rigid slab 1 cell thick
+#: then met only the slab's middle layer, its normal noise: +50.9 % of Coulomb's slide), and at 0.75 exactly one case
+#: fell out by roundoff, hence the quarter cell more.
+FACE_BAND = 1.0
 #: Round 65: True caps each contact pair (rigid body, soft body) at its own ``mu`` times its own normal impulse (module
 #: notes "The pair's friction"); False: round 64's one cap a rigid body with the smallest of its pairs' ``mu`` (main's
 #: rule before: a block on a jelly of mu 0.5 slid with the ``mu`` of an icy jelly elsewhere in the scene).
@@ -235,3 +243,12 @@ def collider_data(setup) -> dict | None:
             out = {"bodies": rigid.astype(np.int32), "cols": np.zeros(nb, np.int32),
                    "mus": slot_frictions(view.materials, rigid)[:, None], "multi": True}
     return out
+
+
+def b_band() -> tuple[float, float]:
+    """Round 96: ``(band, share)`` of the band where the rigid body is field B: :data:`FACE_BAND` (cells) and
+    ``face_share.FACE_SHARE`` with the face rule on; :data:`BAND` and 0.0 with it off (``FACE_SHARE`` 0: the rule
+    before, the catch)."""
+    from gasp_core.mpm import face_share
+    share = float(face_share.FACE_SHARE)
+    return (float(FACE_BAND), share) if share > 0.0 else (float(BAND), 0.0)

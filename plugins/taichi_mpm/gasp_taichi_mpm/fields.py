@@ -231,16 +231,21 @@ class Fields(PairTouch, PairPush, FieldFlip, FieldGround):
 
     @ti.func
     def faced(self, I, grad_b, m_b):
+        """Round 96 (``gasp_core.mpm.face_share``): :meth:`faced_by` at the two-field contact's share ``self.face``."""
+        return self.faced_by(I, grad_b, m_b, self.face)
+
+    @ti.func
+    def faced_by(self, I, grad_b, m_b, share: ti.template()):
         """Round 96 (``gasp_core.mpm.face_share``): whether B's mass falls towards A at the inner node ``I``,
-        ``-grad_b . grad m_A > face m_b |grad m_A|`` (both central differences of the node masses, ``m_b`` B's mass
-        there); True where ``self.face`` is 0 (the rule off, as before round 96)."""
+        ``-grad_b . grad m_A > share m_b |grad m_A|`` (both central differences of the node masses, ``m_b`` B's mass
+        there); True where ``share`` is 0 (the rule off, as before round 96)."""
         out = True
-        if ti.static(self.face > 0.0):
+        if ti.static(share > 0.0):
             ex, ey, ez = ti.Vector([1, 0, 0]), ti.Vector([0, 1, 0]), ti.Vector([0, 0, 1])
             ga = ti.Vector([self.grid_sv[I + ex][3] - self.grid_sv[I - ex][3],
                             self.grid_sv[I + ey][3] - self.grid_sv[I - ey][3],
                             self.grid_sv[I + ez][3] - self.grid_sv[I - ez][3]])
-            out = -grad_b.dot(ga) > ti.cast(self.face, self.real) * m_b * ga.norm()
+            out = -grad_b.dot(ga) > ti.cast(share, self.real) * m_b * ga.norm()
         return out
 
     @ti.func

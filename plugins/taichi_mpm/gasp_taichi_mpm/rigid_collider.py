@@ -49,6 +49,7 @@ class RigidCollider(ColliderPair, PointContact):
         bodies = np.asarray(collider["bodies"], np.int32)
         self.rc_ns, self.rc_multi = len(bodies), int(collider["multi"])
         self.rc_band = float(core_collider.BAND)
+        self.rc_band_b, self.rc_face = core_collider.b_band()   # round 96: a rigid field B's band and face test
         self.rc_pad = float(NODE_PAD)
         self.rc_react_on = int(REACT)
         self.rc_friction = float(FRICTION)
@@ -120,6 +121,7 @@ class RigidCollider(ColliderPair, PointContact):
         ng = self.n_grid
         lo, ext = self.touched_box()
         band = self.rc_band * ti.cast(self.dx[None], ti.f64)
+        band_b = self.rc_band_b * ti.cast(self.dx[None], ti.f64)
         for idx in range(ext[0] * ext[1] * ext[2]):
             I = self.rc_node(idx, lo, ext)
             m = self.grid_mv[0, I][3]
@@ -155,7 +157,12 @@ class RigidCollider(ColliderPair, PointContact):
                                    self.mass_b_seen(I + ey) - self.mass_b_seen(I - ey),
                                    self.mass_b_seen(I + ez) - self.mass_b_seen(I - ez)])
                     ln = n.norm()
-                    if d <= band and self.rc_pt[s] == 0 and ln > MIN_GRADIENT * m:   # round 66: a round body's not
+                    reach = band
+                    faced = True
+                    if ra == 0:   # round 96: a rigid field B's band reaches band_b, where its mass falls to the soft
+                        reach = band_b
+                        faced = self.faced_by(I, n, m_b, self.rc_face)
+                    if d <= reach and self.rc_pt[s] == 0 and ln > MIN_GRADIENT * m and faced:   # round 66: not a round body's
                         flag = 1.0
                         nh = n / ln   # into B: out of the rigid body where it is A
                         if ra == 0:

@@ -27,6 +27,7 @@ from gasp_core.mpm.fields import MIN_FRACTION, MIN_GRADIENT
 from .collider_pair import NA, build_collider_funcs, build_pair
 from .field_nodes import build_sweep
 from .fields import build_b_normal, build_field_reads
+from .face import build_faced
 from .precision import MODULE_OPTIONS, build_types
 from .rigid_pairs import mat33d, vec3d
 from .stencil import build_gather, build_stencil, build_stencil_at
@@ -83,6 +84,8 @@ def build_collider(Ft):
             best = -1
         return best, dbest
 
+    faced = build_faced(Ft)[0]   # round 96 (face.py)
+
     @wp.func
     def mark_node(node: int, grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), grid_vf: wp.array(dtype=Ft),
                   n_grid: int, ground: wp.array(dtype=vec3), cell: Ft, wall_lo: Ft, wall_hi: vec3, touch_frac: Ft,
@@ -91,7 +94,7 @@ def build_collider(Ft):
                   in_a: wp.array(dtype=wp.int32), bodies: wp.array(dtype=wp.int32), ns: int, multi: int, mirror: int,
                   band: wp.float64, lo: vec3, dx: Ft, rc_o: wp.array(dtype=wp.int32), centre: wp.array(dtype=vec3d),
                   rot: wp.array(dtype=mat33d), box: wp.array(dtype=vec3d), pad: wp.float64,
-                  rc_sb: wp.array(dtype=wp.int32), rc_pt: wp.array(dtype=wp.int32)):
+                  rc_sb: wp.array(dtype=wp.int32), rc_pt: wp.array(dtype=wp.int32), band_b: wp.float64, face: Ft):
         """One node of ``rc_mark``: its soft bodies cleared (``rc_sb``), its slot (``rc_o``), its fields' own
         velocities, the band's mark and normal (``rc_m``, ``rc_n``); an empty node's defaults (no mass, no mark,
         slot -1)."""
@@ -137,14 +140,17 @@ def build_collider(Ft):
                     if flow_touch.shape[0] > 1:
                         touch = flow_touch[node] != 0
                 else:   # the body's shape: within band (m) of its points' box, in its frame
-                    touch = d <= band and rc_pt[s] == 0   # round 66: not a round body's (point_contact.py)
+                    reach = band
+                    if ra == 0:   # round 96: a rigid field B's band reaches band_b, with the face test below
+                        reach = band_b
+                    touch = d <= reach and rc_pt[s] == 0   # round 66: not a round body's (point_contact.py)
                 # field B's normal (fields.build_b_normal), as grad m_R: into the rigid body (the rigid field's own
                 # mass gradient ploughed the slides, -97.7 %: docs/rigid.md "Round 63")
                 gr = b_normal(grid_mv, grid_sv, ground, node, n_grid, mirror)
                 if ra != 0:
                     gr = -gr
                 ln = wp.length(gr)
-                if touch and ln > Ft(MIN_GRADIENT) * m:
+                if touch and ln > Ft(MIN_GRADIENT) * m and (ra != 0 or faced(grid_sv, node, n_grid, gr, m_b, face)):
                     flag = Ft(1.0)
                     nh = -gr / ln   # out of the rigid body
         rc_m[node] = vec3(m_r, m - m_r, flag)
@@ -160,7 +166,7 @@ def build_collider(Ft):
                 band: wp.float64, lo: vec3, dx: Ft, rc_o: wp.array(dtype=wp.int32), centre: wp.array(dtype=vec3d),
                 rot: wp.array(dtype=mat33d), boxes: wp.array(dtype=vec3d), pad: wp.float64,
                 rc_sb: wp.array(dtype=wp.int32), rc_pt: wp.array(dtype=wp.int32), box: wp.array(dtype=wp.int32),
-                threads: int, along: int):
+                threads: int, along: int, band_b: wp.float64, face: Ft):
         """``mark_node`` over the box sweep ``box`` (``field_nodes.build_sweep``; round 68: the hull of the boxes
         P2G touched this substep and the last, not the whole grid: outside it every node holds the empty node's
         defaults, which the last sweep over it wrote, field_nodes' module notes)."""
@@ -173,7 +179,7 @@ def build_collider(Ft):
                 for node in range(first, first + unit_len(box, along)):
                     mark_node(node, grid_mv, grid_sv, grid_vf, n_grid, ground, cell, wall_lo, wall_hi, touch_frac,
                               ground_touch, flow_touch, free, rc_m, rc_n, grid_dv, in_a, bodies, ns, multi, mirror,
-                              band, lo, dx, rc_o, centre, rot, boxes, pad, rc_sb, rc_pt)
+                              band, lo, dx, rc_o, centre, rot, boxes, pad, rc_sb, rc_pt, band_b, face)
 
     @wp.func
     def sum_node(node: int, grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), rc_m: wp.array(dtype=vec3),
