@@ -230,6 +230,14 @@ class Fields(PairTouch, PairPush, FieldFlip, FieldGround):
         return out
 
     @ti.func
+    def grad_a(self, I):
+        """``grad m_A`` at the inner node ``I``: central differences of ``grid_sv``'s masses (kg)."""
+        ex, ey, ez = ti.Vector([1, 0, 0]), ti.Vector([0, 1, 0]), ti.Vector([0, 0, 1])
+        return ti.Vector([self.grid_sv[I + ex][3] - self.grid_sv[I - ex][3],
+                          self.grid_sv[I + ey][3] - self.grid_sv[I - ey][3],
+                          self.grid_sv[I + ez][3] - self.grid_sv[I - ez][3]])
+
+    @ti.func
     def faced(self, I, grad_b, m_b):
         """Round 96 (``gasp_core.mpm.face_share``): :meth:`faced_by` at the two-field contact's share ``self.face``."""
         return self.faced_by(I, grad_b, m_b, self.face)
@@ -241,10 +249,7 @@ class Fields(PairTouch, PairPush, FieldFlip, FieldGround):
         there); True where ``share`` is 0 (the rule off, as before round 96)."""
         out = True
         if ti.static(share > 0.0):
-            ex, ey, ez = ti.Vector([1, 0, 0]), ti.Vector([0, 1, 0]), ti.Vector([0, 0, 1])
-            ga = ti.Vector([self.grid_sv[I + ex][3] - self.grid_sv[I - ex][3],
-                            self.grid_sv[I + ey][3] - self.grid_sv[I - ey][3],
-                            self.grid_sv[I + ez][3] - self.grid_sv[I - ez][3]])
+            ga = self.grad_a(I)
             out = -grad_b.dot(ga) > ti.cast(share, self.real) * m_b * ga.norm()
         return out
 
@@ -254,10 +259,7 @@ class Fields(PairTouch, PairPush, FieldFlip, FieldGround):
         MIN_GRADIENT m``): the fields then keep their offsets instead of moving as one."""
         out = False
         if ti.static(self.face > 0.0):
-            ex, ey, ez = ti.Vector([1, 0, 0]), ti.Vector([0, 1, 0]), ti.Vector([0, 0, 1])
-            ga = ti.Vector([self.grid_sv[I + ex][3] - self.grid_sv[I - ex][3],
-                            self.grid_sv[I + ey][3] - self.grid_sv[I - ey][3],
-                            self.grid_sv[I + ez][3] - self.grid_sv[I - ez][3]])
+            ga = self.grad_a(I)
             out = ga.norm() > MIN_GRADIENT * m
         return out
 

@@ -22,12 +22,17 @@ def build_faced(Ft):
     vec3, vec4, _ = build_types(Ft)
 
     @wp.func
+    def grad_a(grid_sv: wp.array(dtype=vec4), node: int, n_grid: int):
+        """``grad m_A`` at the inner ``node``: central differences of ``grid_sv``'s masses (kg)."""
+        nn = n_grid * n_grid
+        return vec3(grid_sv[node + nn][3] - grid_sv[node - nn][3], grid_sv[node + n_grid][3] - grid_sv[node - n_grid][3],
+                    grid_sv[node + 1][3] - grid_sv[node - 1][3])
+
+    @wp.func
     def faced(grid_sv: wp.array(dtype=vec4), node: int, n_grid: int, grad_b: vec3, m_b: Ft, face: Ft):
         if face <= Ft(0.0):
             return True
-        nn = n_grid * n_grid
-        ga = vec3(grid_sv[node + nn][3] - grid_sv[node - nn][3], grid_sv[node + n_grid][3] - grid_sv[node - n_grid][3],
-                  grid_sv[node + 1][3] - grid_sv[node - 1][3])
+        ga = grad_a(grid_sv, node, n_grid)
         return -wp.dot(grad_b, ga) > face * m_b * wp.length(ga)
 
     @wp.func
@@ -35,9 +40,7 @@ def build_faced(Ft):
         """Where B shows no normal at all (``grad m_B`` under ``MIN_GRADIENT m``): whether the rule is on and A shows
         a face (``|grad m_A| > MIN_GRADIENT m``), so that the fields keep their offsets there instead of moving as
         one (a support's middle layer at its first substep, its lattice exactly symmetric)."""
-        nn = n_grid * n_grid
-        ga = vec3(grid_sv[node + nn][3] - grid_sv[node - nn][3], grid_sv[node + n_grid][3] - grid_sv[node - n_grid][3],
-                  grid_sv[node + 1][3] - grid_sv[node - 1][3])
+        ga = grad_a(grid_sv, node, n_grid)
         return face > Ft(0.0) and wp.length(ga) > Ft(MIN_GRADIENT) * m
 
     return faced, a_face
