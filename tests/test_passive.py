@@ -227,10 +227,11 @@ def block_with_markers(n_grid: int = 16) -> SimSetup:
                     options={"threads": 1, "passive_every": 16})
 
 
-def _markers_run(name: str, n_frames: int = 8) -> tuple[np.ndarray, str]:
-    """The markers' positions per frame (frames, m, 3) and the divergence message ('' when the run finished)."""
+def _markers_run(name: str, n_frames: int = 8, s: SimSetup | None = None) -> tuple[np.ndarray, str]:
+    """The markers' positions per frame (frames, m, 3) and the divergence message ('' when the run finished) of
+    ``s`` (default :func:`block_with_markers`)."""
     from gasp_core.errors import EngineDivergence
-    s = block_with_markers()
+    s = block_with_markers() if s is None else s
     e = build_engine(engines()[name], s)
     traj, err = [], ""
     try:
@@ -272,6 +273,21 @@ def test_passive_points_are_held_by_the_ground_and_walls(name):
 
 
 @pytest.mark.parametrize("name", [n for n in _engine_names() if n != "mujoco_flex"])
+def test_a_ground_below_the_walls_floor_plane_is_the_markers_floor(name):
+    """Round 97: the ground 1.6 dx above the domain's bottom, under the walls' floor plane (3 dx up), with the
+    particle contact, whose planes have no floor face where there is a ground (``contact.wall_faces``, round 58). The
+    markers under the block land on the ground with it, not on the floor's plane 1.4 dx above it (measured before:
+    the lowest marker +1.4000 dx from the ground on both engines, held on the floor's plane while the block rested on
+    the ground)."""
+    from gasp_core.seam.setup import Boundary
+    s = block_with_markers()
+    s = dataclasses.replace(s, boundaries=[Boundary("ground", height=0.1, friction=0.0), Boundary("walls", friction=0.0)])
+    traj, err = _markers_run(name, s=s)
+    assert not err, err
+    assert abs(float(traj[:, :, 2].min()) - 0.1) <= HOLD_TOL / 16, (float(traj[:, :, 2].min()) - 0.1) * 16
+
+
+@pytest.mark.parametrize("name", [n for n in _engine_names() if n != "mujoco_flex"])
 def test_the_hold_check_catches_an_engine_without_the_rule(name, monkeypatch):
     """The same run with the rule taken out of the engine (its box made unbounded): the markers sink 1.1 dx into the
     ground and cross the wall's face by 0.12 dx (measured on both engines), and the check says so."""
@@ -299,6 +315,9 @@ def test_passive_bounds_and_hold_passive():
     lo3, hi3 = passive_bounds(s, "particle")   # the particle contact: the same planes
     np.testing.assert_allclose(lo3, lo, rtol=1e-12)
     np.testing.assert_allclose(hi3, hi, rtol=1e-12)
+    low = dataclasses.replace(s, boundaries=[Boundary("ground", height=0.05), Boundary("walls")])
+    for contact in ("grid", "particle"):   # round 97: a ground under the floor's plane (3/24) is the floor for both
+        assert passive_bounds(low, contact)[0][2] == 0.05
     x = np.array([[0.5, 0.5, 0.2], [0.95, 0.5, 0.5], [0.5, 0.5, 0.5]])
     v = np.array([[1.0, 0.0, -2.0], [3.0, 1.0, 0.0], [0.0, 0.0, -1.0]])
     xh, vh = hold_passive(x, v, lo, hi)

@@ -37,7 +37,7 @@ def setup(n_grid: int, support: float, shift: float, upper: float = UPPER, half:
     """The scene: the upper block (body 0, ``upper`` cells thick, ``2 half`` m across) thrown at ``bb.V0`` on a
     support (body 1, 40 x 16 cm, ``support`` cells thick) on a frictionless ground at z = 0; the grid's lower corner
     ``shift`` cells above ``bb.block_setup``'s; ``rigid`` "upper" or "support": that body ``model = "rigid"`` (the
-    mixed pairs, a neighbour the face rule does not act on)."""
+    mixed pairs, a neighbour the face rule does not act on); round 97, "both": the rigid pair."""
     from gasp_core.seam.setup import Boundary, Material, SimSetup
     from gasp_core.testing.helpers import box_points
     dx = bb.SIDE / n_grid
@@ -48,8 +48,9 @@ def setup(n_grid: int, support: float, shift: float, upper: float = UPPER, half:
     x = np.concatenate([xs, xb])
     v = np.zeros_like(x)
     v[:len(xs), 0] = bb.V0
-    mats = [Material("jelly", model="rigid" if rigid == ("upper", "support")[b] else "elastic", E=1.0e5, nu=0.3,
-                     rho=1000.0) for b in range(2)]
+    rigid_b = [rigid in ("upper", "both"), rigid in ("support", "both")]
+    mats = [Material("jelly", model="rigid" if rigid_b[b] else "elastic", E=1.0e5, nu=0.3, rho=1000.0)
+            for b in range(2)]
     s = SimSetup(x=x, v=v, p_vol=np.concatenate([np.full(len(xs), vs), np.full(len(xb), vb)]),
                  body_id=np.concatenate([np.zeros(len(xs), int), np.ones(len(xb), int)]), materials=mats,
                  gravity=np.array([0.0, 0.0, -bb.G]), domain_lo=lo, domain_hi=lo + bb.SIDE, n_grid=n_grid,
@@ -58,15 +59,21 @@ def setup(n_grid: int, support: float, shift: float, upper: float = UPPER, half:
     return s
 
 
-def row(engine: str, n_grid: int, support: float, shift: float, rigid: str = "") -> dict:
-    """One case: the slide and the support's final speed against the closed forms (``bb.check``'s figures)."""
+def row(engine: str, n_grid: int, support: float, shift: float, rigid: str = "", output=None) -> dict:
+    """One case: the slide and the support's final speed against the closed forms (``bb.check``'s figures), and
+    (round 97) ``rest``: the slide to the moment the block comes to rest on the support (the separation's largest
+    value over the frames, at ``bb.FPS``), before the support's elastic recoil after the stick. ``output``:
+    ``bb.measure``'s (a broken engine's separation per frame)."""
     s = setup(n_grid, support, shift, rigid=rigid)
     t0 = time.time()
-    d, v2 = bb.measure(engine, s)
+    seps = []
+    d, v2 = bb.measure(engine, s, output=lambda sep: seps.append(sep if output is None else output(sep)) or seps[0])
     d0, vf = bb.closed_form(s)
+    rest = float(np.max(seps[0]) - seps[0][0])
     return {"engine": engine, "rigid": rigid, "n_grid": n_grid, "support_cells": support, "shift": shift, "V0": bb.V0,
-            "slide": d, "slide_want": d0, "slide_err": d / d0 - 1.0, "lower": v2, "lower_want": vf,
-            "lower_err": v2 / vf - 1.0, "wall_s": time.time() - t0}
+            "fps": bb.FPS, "slide": d, "slide_want": d0, "slide_err": d / d0 - 1.0, "rest": rest,
+            "rest_err": rest / d0 - 1.0, "lower": v2, "lower_want": vf, "lower_err": v2 / vf - 1.0,
+            "wall_s": time.time() - t0}
 
 
 def main(argv=None) -> int:
@@ -74,14 +81,16 @@ def main(argv=None) -> int:
     ap.add_argument("--engine", default="warp_mpm")
     ap.add_argument("--grids", default=",".join(map(str, GRIDS)))
     ap.add_argument("--face-share", type=float, default=None, help="gasp_core.mpm.face_share.FACE_SHARE (0: off)")
-    ap.add_argument("--rigid", default="", help="upper or support: that body rigid (a mixed pair)")
+    ap.add_argument("--rigid", default="", help="upper or support: that body rigid (a mixed pair); both: the rigid pair")
     ap.add_argument("--v0", type=float, default=bb.V0, help="the upper block's throw, m/s")
+    ap.add_argument("--fps", type=int, default=bb.FPS, help="frames a second (round 97: 240 reads the rest's slide "
+                    "to 0.2 %% of it)")
     ap.add_argument("--out", default=None, help="a new JSON file for the rows (refused if it exists)")
     a = ap.parse_args(argv)
     import gasp_core.mpm.face_share as fs
     if a.face_share is not None:
         fs.FACE_SHARE = a.face_share
-    bb.V0 = a.v0
+    bb.V0, bb.FPS = a.v0, a.fps
     out = RF.new_out(ap, a.out)
     rows = []
     for n_grid in map(int, a.grids.split(",")):
@@ -91,7 +100,7 @@ def main(argv=None) -> int:
                 r["face_share"] = fs.FACE_SHARE
                 rows.append(r)
                 print(f"{a.engine} n_grid {n_grid} support {support} cells shift {shift}: slide "
-                      f"{100 * r['slide_err']:+.2f} %, support's speed {100 * r['lower_err']:+.2f} % "
+                      f"{100 * r['slide_err']:+.2f} % (at rest {100 * r['rest_err']:+.2f} %), support's speed {100 * r['lower_err']:+.2f} % "
                       f"({r['wall_s']:.1f} s)", flush=True)
     RF.write_rows(out, rows)
     return 0

@@ -318,8 +318,10 @@ def passive_bounds(setup, contact: str = "grid") -> tuple[np.ndarray, np.ndarray
 
     - ``ground``: ``z >= height`` (the plane itself, with either contact model; the highest of several);
     - ``walls``: ``lo_d + 3 dx <= x_d <= hi_d - 3 dx`` on each axis, the walls' planes (:data:`WALL_NODES`), with
-      either contact model (with ``contact = "grid"`` and a ground, no floor face: the ground is the floor,
-      ``gasp_core.mpm.contact.wall_floor``): with ``contact = "grid"`` the walls' grid rule stops the node layers on the planes and
+      either contact model (with a ground, no floor face: the ground is the floor, ``gasp_core.mpm.contact.wall_floor``
+      for the grid contact, ``wall_faces`` for the particle contact since round 58; round 97: the particle contact's
+      passive points were still held on the floor's plane, up to 3 cells above a ground lower than it, where the
+      material rests): with ``contact = "grid"`` the walls' grid rule stops the node layers on the planes and
       behind them (``gasp_core.mpm.contact.wall_grid_cells``); with ``contact = "particle"`` its points meet the
       planes (``contact.contact_planes``);
     - ``fixed_region``: nothing (its passive points are held where they start, like its material points);
@@ -330,12 +332,11 @@ def passive_bounds(setup, contact: str = "grid") -> tuple[np.ndarray, np.ndarray
     d_lo = np.asarray(setup.domain_lo, dtype=np.float64)
     d_hi = np.asarray(setup.domain_hi, dtype=np.float64)
     dx = float(setup.dx)
-    particle = contact == "particle"
     for b in setup.boundaries:
         if b.kind == "walls":   # the walls' planes (contact.contact_planes, contact.wall_grid_cells, wall_floor)
             planes = d_lo + WALL_NODES * dx
-            if not particle and any(g.kind == "ground" for g in setup.boundaries):
-                planes[2] = -np.inf   # the ground is the floor (contact.wall_floor)
+            if any(g.kind == "ground" for g in setup.boundaries):
+                planes[2] = -np.inf   # the ground is the floor (contact.wall_floor, contact.wall_faces)
             lo = np.maximum(lo, planes)
             hi = np.minimum(hi, d_hi - WALL_NODES * dx)
         elif b.kind == "ground":
