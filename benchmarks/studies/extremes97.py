@@ -94,14 +94,20 @@ def row(engine: str, shape: str, speed: float, direction: str, n_grid: int, cont
     return out
 
 
+#: A point on a plane, held there in float32, may read this far past it (cells; ``tests/test_passive.py``'s
+#: ``HOLD_TOL``: the planes' float32 rounding is about 1e-6 dx).
+HOLD_TOL = 1e-3
+
+
 def verdict(r: dict) -> str:
     """What the run broke of the must-show, or "ok"."""
     bad = [r["error"]] if r["error"] or len(r["E"]) < FRAMES else []
+    tol = HOLD_TOL * 0.6 / r["n_grid"]   # the box is 0.6 m wide
     if r["E"] and max(r["E"]) > 1.0:
         bad.append(f"energy {max(r['E']):.4f}")
-    if r["under"] and max(r["under"]) > 0.0:
+    if r["under"] and max(r["under"]) > tol:
         bad.append(f"{1e3 * max(r['under']):.3f} mm under the ground")
-    if r["past"] and max(r["past"]) > 0.0:
+    if r["past"] and max(r["past"]) > tol:
         bad.append(f"{1e3 * max(r['past']):.3f} mm past a wall")
     return "; ".join(str(b) for b in bad) or "ok"
 

@@ -318,10 +318,9 @@ def passive_bounds(setup, contact: str = "grid") -> tuple[np.ndarray, np.ndarray
 
     - ``ground``: ``z >= height`` (the plane itself, with either contact model; the highest of several);
     - ``walls``: ``lo_d + 3 dx <= x_d <= hi_d - 3 dx`` on each axis, the walls' planes (:data:`WALL_NODES`), with
-      either contact model (with a ground, no floor face: the ground is the floor, ``gasp_core.mpm.contact.wall_floor``
-      for the grid contact, ``wall_faces`` for the particle contact since round 58; round 97: the particle contact's
-      passive points were still held on the floor's plane, up to 3 cells above a ground lower than it, where the
-      material rests): with ``contact = "grid"`` the walls' grid rule stops the node layers on the planes and
+      either contact model (with a ground, no floor face: the ground is the floor, ``contact.wall_floor``, and since
+      round 97 for the particle contact too, as its planes, ``wall_faces``: its passive points were held on the floor's
+      plane, up to 3 cells above a lower ground): with ``contact = "grid"`` the walls' grid rule stops the node layers on the planes and
       behind them (``gasp_core.mpm.contact.wall_grid_cells``); with ``contact = "particle"`` its points meet the
       planes (``contact.contact_planes``);
     - ``fixed_region``: nothing (its passive points are held where they start, like its material points);

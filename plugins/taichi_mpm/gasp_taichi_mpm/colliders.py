@@ -94,8 +94,9 @@ class Colliders:
     def allocate_hold(self, hold, box_hold=None) -> None:
         """``hold``: per body, True where its points take the colliders' hold (:meth:`hold_point`: the bodies of the
         grid contact in a scene with colliders), or None: no hold (``self.hold_cols`` False). ``box_hold``: per body,
-        True where its points take the ground's and walls' hold (:meth:`hold_box`: the deformable bodies of the grid
-        contact), or None (``self.hold_boxed`` False). The rigid bodies' hold is allocated after (``rigid_hold.py``;
+        its code of the ground's and walls' hold (:meth:`hold_box`, ``gasp_core.mpm.box_hold.box_hold_codes``: the
+        deformable bodies of the grid contact, and since round 97 of the particle contact), or None
+        (``self.hold_boxed`` False). The rigid bodies' hold is allocated after (``rigid_hold.py``;
         none: ``self.hold_rigid`` False)."""
         self.hold_rigid = False
         self.hold_cols = hold is not None and bool(np.any(hold))
@@ -121,7 +122,8 @@ class Colliders:
 
     @ti.func
     def hold_box(self, p):
-        """The ground's and walls' position-level hold on point ``p`` of a body of the grid contact after its G2P
+        """The ground's and walls' position-level hold on point ``p`` of a deformable body after its G2P (round 97: the
+        particle contact's too, but for a point that started behind a plane, its skin below 0)
         (warp_mpm's ``box_hold``; ``gasp_core.mpm.points.hold_passive``'s rule): outside ``[hold_lo, hold_hi]`` (the box of
         ``gasp_core.mpm.points.passive_bounds``: the ground's plane, the walls' last node layers) it is put on the
         face, its velocity into the face removed, and one put on the floor loses ``hold_mu`` (the floor's friction)
@@ -130,7 +132,8 @@ class Colliders:
         50 m/s (issue 66). The floor's friction: the ground's plane lies up to a cell above its top node layer, and a
         point held on it reads that stopped layer with a weight as low as 1/8, so without its own friction a sand
         column held there slid out flat (``tests/test_runout.py``)."""
-        if self.box_holds[self.body[p]] != 0:   # contact.py: with the floor's friction, as a stranded point
+        h = self.box_holds[self.body[p]]   # gasp_core.mpm.box_hold: 1 every point, 2 unless it started behind a plane
+        if h == 1 or (h == 2 and self.p_contact[p][2] >= 0.0):   # with the floor's friction, as a stranded point
             self.x[p], self.v[p] = self.hold_passive(self.x[p], self.v[p], True)
 
     @ti.func

@@ -13,6 +13,7 @@ import numpy as np
 
 from gasp_core.mpm.contact import (balance_mass, contact_coefficients, contact_model, contact_planes, contact_reach,
                                    flowing_bodies, rule_models, touch_dashpot_speed)
+from gasp_core.mpm.box_hold import box_hold_codes
 from gasp_core.mpm.fields import field_setup
 from gasp_core.mpm.rigid_pairs import pair_data, support_data
 from gasp_core.mpm.shared_fields import shared_field_warning
@@ -169,8 +170,7 @@ class TaichiMPMEngine(GridEngineBase, StateClock):
         self.schedule = resolve(cfg.schedule, self.device)   # "cpu" or "gpu" (gasp_taichi_mpm.schedule)
         atomic = self.device == "cuda" or self.schedule == "gpu" or grid_bytes > MAX_PRIVATE_GRID_BYTES
         C0 = np.zeros((n, 3, 3)) if setup.C is None else setup.C[o]
-        self.solver = MPMSolver(
-            x=setup.x[o], v=setup.v[o], C0=C0, p_mass=setup.p_mass[o], p_vol=setup.p_vol[o],
+        self.solver = MPMSolver(x=setup.x[o], v=setup.v[o], C0=C0, p_mass=setup.p_mass[o], p_vol=setup.p_vol[o],
             body=setup.body_id[o], fixed=fixed[o], jp0=jp0[o], params=params, kinds=kinds,
             n_grid=setup.n_grid, lo=setup.domain_lo, dx=dx, dt=self.dt, gravity=setup.gravity,
             walls=walls, grounds=grounds, regions=regions, real=real,
@@ -181,7 +181,7 @@ class TaichiMPMEngine(GridEngineBase, StateClock):
             n_colc=len(setup.colliders) if contact in ("particle", "mixed") else 0,
             planes=contact_planes(view, contact),
             mixed=mixed, fields=(*field_setup(view), view), hold=flowing_bodies(view, contact) if setup.colliders else None,
-            box_hold=flowing_bodies(view, contact) & ~rigid,   # the ground and walls' hold (colliders.py)
+            box_hold=box_hold_codes(view, contact),   # the ground and walls' hold (colliders.py)
             passive_bounds=(*passive_bounds(setup, contact), passive_floor_friction(setup, contact)), rigid_frames=None if frames is None else (rigid, *frames),
             contact_reach=contact_reach(setup), gpu=self.schedule == "gpu",
             tiles=self.schedule == "gpu" and self.device == "cuda" and use_tiles(cfg.p2g, self.n_material),

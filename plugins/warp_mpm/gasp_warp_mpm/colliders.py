@@ -223,9 +223,10 @@ def build_collider_hold(Ft):
 
 @functools.cache
 def build_box_hold(Ft):
-    """``box_hold``: the ground's and walls' position-level hold on the points of the deformable bodies that take the
-    grid contact, scalar type ``Ft`` (taichi_mpm's ``Colliders.hold_box``; ``gasp_core.mpm.points.hold_passive``'s
-    rule): after G2P, a point outside ``[lo, hi]`` (``gasp_core.mpm.points.passive_bounds``: the ground's plane, the
+    """``box_hold``: the ground's and walls' position-level hold on the points of the deformable bodies
+    (``gasp_core.mpm.box_hold``: the grid contact's, and since round 97 the particle contact's but for its points that
+    started behind a plane, ``kcs`` their skin below 0), scalar type ``Ft`` (taichi_mpm's ``Colliders.hold_box``;
+    ``gasp_core.mpm.points.hold_passive``'s rule): after G2P, a point outside ``[lo, hi]`` (``gasp_core.mpm.points.passive_bounds``: the ground's plane, the
     walls' last node layers) is put on the face, its velocity into the face removed, and one put on the floor loses
     ``mu`` (the floor's friction, ``gasp_core.mpm.points.passive_floor_friction``) times that removed speed from its
     horizontal speed, Coulomb's friction (``hold_passive``'s rule for a stranded point). The grid rule acts at the
@@ -239,10 +240,14 @@ def build_box_hold(Ft):
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def box_hold(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32),
-                 holds: wp.array(dtype=wp.int32), lo: vec3, hi: vec3, mu: Ft):
+                 holds: wp.array(dtype=wp.int32), kcs: wp.array(dtype=vec3), lo: vec3, hi: vec3, mu: Ft):
         p = wp.tid()
-        if holds[body[p]] == 0:
+        h = holds[body[p]]   # gasp_core.mpm.box_hold.box_hold_codes: 1 every point, 2 unless it started behind a plane
+        if h == 0:
             return
+        if h == 2:
+            if kcs[p][2] < Ft(0.0):
+                return
         xp, vp = hold_passive(x[p], v[p], lo, hi, 1, mu)   # on the floor with its friction, as a stranded point
         x[p] = xp
         v[p] = vp
@@ -254,16 +259,16 @@ def hold_launches(eng, Ft, has_extras: int, ex) -> list:
     """The recorded launches of the holds on the grid contact's points after G2P for the engine ``eng``: the ground's
     and walls' (:func:`build_box_hold`) where a deformable body takes the grid contact, then the colliders'
     (:func:`build_collider_hold`) where its scene has colliders and a body that takes the grid contact; else none."""
+    from gasp_core.mpm.box_hold import box_hold_codes
     from gasp_core.mpm.points import passive_bounds, passive_floor_friction
-    from gasp_core.mpm.rigid import rigid_mask
     out = []
-    boxed = eng.flows.numpy().astype(bool) & ~rigid_mask(eng.setup.materials)
+    boxed = box_hold_codes(eng.setup, eng._contact)
     if boxed.any():
         vec3 = build_types(Ft)[0]
-        eng.box_holds = wp.array(boxed.astype("int32"), dtype=wp.int32, device=eng.device)
+        eng.box_holds = wp.array(boxed, dtype=wp.int32, device=eng.device)
         lo, hi = (vec3(*[float(c) for c in b]) for b in passive_bounds(eng.setup, eng._contact))
         out.append(wp.launch(build_box_hold(Ft), dim=eng.n_material, device=eng.device, record_cmd=True,
-                             inputs=[eng.x, eng.v, eng.body, eng.box_holds, lo, hi,
+                             inputs=[eng.x, eng.v, eng.body, eng.box_holds, eng.p_contact, lo, hi,
                                      Ft(passive_floor_friction(eng.setup, eng._contact))]))
     if not (has_extras and eng.setup.colliders and eng.flows.numpy().any()):
         return out
