@@ -1,6 +1,5 @@
 """Which points the ground's and walls' position-level hold keeps in the box of
-:func:`gasp_core.mpm.points.passive_bounds` after their G2P (the engines' ``box_hold``: warp_mpm's
-``colliders.build_box_hold``, taichi_mpm's ``Colliders.hold_box``; the rule of
+:func:`gasp_core.mpm.points.passive_bounds` after their G2P (each grid engine's ``box_hold``; the rule of
 :func:`gasp_core.mpm.points.hold_passive`: a point past a face is put on it, its velocity into the face removed, and
 one put on the floor loses the floor's ``mu`` times that removed speed from its horizontal speed).
 
@@ -10,7 +9,7 @@ one put on the floor loses the floor's ``mu`` times that removed speed from its 
   deformable bodies too. Its planes push a point by a penalty ``k depth`` within its skin, which a fast point
   overruns: over ``benchmarks/studies/extremes97.py``'s family (a brittle box and ball at 20 and 50 m/s thrown down,
   into a wall and at 45 degrees, n_grid 32 and 48) the frames showed points up to 2.77 mm (0.22 dx) past a wall's
-  plane and 1.93 mm under the ground on 12 of 24 particle-contact runs (warp_mpm), and none on the grid contact's.
+  plane and 1.93 mm under the ground on 12 of 24 particle-contact runs, and none on the grid contact's.
   A point at rest lies within its skin, above the plane, so the hold acts only on one that has passed the plane
   itself. A point that started behind a plane (a negative skin, ``gasp_core.mpm.contact.contact_coefficients``: a
   capture's vertex through its ground, which the penalty holds at its starting depth) is left to the penalty.
