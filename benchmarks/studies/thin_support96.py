@@ -7,7 +7,9 @@ grid's offset against the bodies and the grid, judged by that test's closed form
 The family: n_grid 24, 32 and 48 in the 0.48 m box; the support 1, 1.5, 2 and 3 cells thick (its faces on node layers
 at offset 0 for whole cells); the grid shifted 0, 1/4 and 1/2 cell up against the bodies and the ground (the ground
 stays at z = 0); the upper block 6 x 6 cm across and 3 cells thick. ``--face-share 0`` runs the rule before round 96
-(``gasp_core.mpm.face_share.FACE_SHARE``), the catch.
+(``gasp_core.mpm.face_share.FACE_SHARE``), the catch. Round 97 (``docs/contact.md`` "Round 97"): ``--rigid both``
+(the rigid pair) and ``three`` (two rigid blocks on a rigid board), and ``rest``, the slide to the moment the block
+comes to rest (``--fps 240``), before a jelly support's recoil.
 ``python benchmarks/studies/thin_support96.py --engine warp_mpm --out benchmarks/results/thin_support96_warp.json``
 (refused if the file exists).
 """
@@ -48,11 +50,14 @@ def setup(n_grid: int, support: float, shift: float, upper: float = UPPER, half:
     x = np.concatenate([xs, xb])
     v = np.zeros_like(x)
     v[:len(xs), 0] = bb.V0
-    rigid_b = [rigid in ("upper", "both"), rigid in ("support", "both")]
+    rigid_b = [rigid in ("upper", "both", "three"), rigid in ("support", "both", "three")]
     mats = [Material("jelly", model="rigid" if rigid_b[b] else "elastic", E=1.0e5, nu=0.3, rho=1000.0)
             for b in range(2)]
-    s = SimSetup(x=x, v=v, p_vol=np.concatenate([np.full(len(xs), vs), np.full(len(xb), vb)]),
-                 body_id=np.concatenate([np.zeros(len(xs), int), np.ones(len(xb), int)]), materials=mats,
+    vol, body = [np.full(len(xs), vs), np.full(len(xb), vb)], [np.zeros(len(xs), int), np.ones(len(xb), int)]
+    if rigid == "three":   # a second rigid block 16 cm on, thrown alike (round 62's pairs: three bodies coloured)
+        x, v = np.concatenate([x, xs + [0.16, 0.0, 0.0]]), np.concatenate([v, v[:len(xs)]])
+        vol, body, mats = vol + [vol[0]], body + [np.full(len(xs), 2)], mats + [mats[0]]
+    s = SimSetup(x=x, v=v, p_vol=np.concatenate(vol), body_id=np.concatenate(body), materials=mats,
                  gravity=np.array([0.0, 0.0, -bb.G]), domain_lo=lo, domain_hi=lo + bb.SIDE, n_grid=n_grid,
                  frame_dt=1.0 / bb.FPS, boundaries=[Boundary("ground", height=0.0, friction=0.0)])
     s.n_render = 0
@@ -66,6 +71,9 @@ def row(engine: str, n_grid: int, support: float, shift: float, rigid: str = "",
     ``bb.measure``'s (a broken engine's separation per frame)."""
     s = setup(n_grid, support, shift, rigid=rigid)
     t0 = time.time()
+    if rigid == "three":
+        return three_row(engine, s, {"engine": engine, "rigid": rigid, "n_grid": n_grid, "support_cells": support,
+                                     "shift": shift, "V0": bb.V0, "fps": bb.FPS}, t0)
     seps = []
     d, v2 = bb.measure(engine, s, output=lambda sep: seps.append(sep if output is None else output(sep)) or seps[0])
     d0, vf = bb.closed_form(s)
@@ -76,12 +84,39 @@ def row(engine: str, n_grid: int, support: float, shift: float, rigid: str = "",
             "wall_s": time.time() - t0}
 
 
+def three_row(engine: str, s, out: dict, t0: float) -> dict:
+    """Round 97, ``--rigid three``: two rigid blocks (bodies 0 and 2, mass ``m1`` together) thrown alike on a rigid
+    board (body 1, ``m2``): each comes to rest on it after ``V0^2 / (2 mu g (1 + m1 / m2))`` and the board ends at
+    ``V0 m1 / (m1 + m2)``. ``rest``, ``slide``: the block whose figure is the farther from it."""
+    from gasp_core.mpm.fields import body_friction, combine_friction
+    from gasp_core.seam import build_engine, get_engine
+    pm, body = np.asarray(s.p_mass, float), np.asarray(s.body_id)
+    e = build_engine(get_engine(engine), s)
+    X = [np.asarray(s.x, float)]
+    for _ in range(round(bb.T * bb.FPS)):
+        e.step_frame()
+        X.append(e.positions().astype(float))
+    X = np.array(X)
+    c = [(X[:, body == k, 0] * pm[body == k]).sum(1) / pm[body == k].sum() for k in range(3)]
+    m1, m2 = pm[body != 1].sum(), pm[body == 1].sum()
+    mu = combine_friction(body_friction(s.materials[0]), body_friction(s.materials[1]))
+    d0, vf = float(bb.V0 ** 2 / (2 * mu * bb.G * (1 + m1 / m2))), float(bb.V0 * m1 / (m1 + m2))
+    rests = [float(np.max(c[k] - c[1]) - (c[k] - c[1])[0]) for k in (0, 2)]
+    ends = [float((c[k] - c[1])[-1] - (c[k] - c[1])[0]) for k in (0, 2)]
+    k = round(0.1 * bb.FPS)
+    v2 = float((c[1][-1] - c[1][-1 - k]) * bb.FPS / k)
+    rest, d = max(rests, key=lambda r: abs(r / d0 - 1.0)), max(ends, key=lambda r: abs(r / d0 - 1.0))
+    return {**out, "slide": d, "slide_want": d0, "slide_err": d / d0 - 1.0, "rest": rest, "rest_err": rest / d0 - 1.0,
+            "lower": v2, "lower_want": vf, "lower_err": v2 / vf - 1.0, "wall_s": time.time() - t0}
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--engine", default="warp_mpm")
     ap.add_argument("--grids", default=",".join(map(str, GRIDS)))
     ap.add_argument("--face-share", type=float, default=None, help="gasp_core.mpm.face_share.FACE_SHARE (0: off)")
-    ap.add_argument("--rigid", default="", help="upper or support: that body rigid (a mixed pair); both: the rigid pair")
+    ap.add_argument("--rigid", default="", help="upper or support: that body rigid (a mixed pair); both: the rigid pair; three: two rigid "
+                    "blocks on a rigid board")
     ap.add_argument("--v0", type=float, default=bb.V0, help="the upper block's throw, m/s")
     ap.add_argument("--fps", type=int, default=bb.FPS, help="frames a second (round 97: 240 reads the rest's slide "
                     "to 0.2 %% of it)")

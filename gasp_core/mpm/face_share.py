@@ -36,22 +36,24 @@ import numpy as np
 FACE_SHARE = 0.1
 
 
-#: Round 97 (``docs/contact.md`` "Round 97: where a block on a thin support comes to rest"): True takes the rule to two
-#: rigid bodies too (:func:`gasp_core.mpm.fields.rigid_pair`); False: off there (the rule before: a rigid block on a
-#: rigid board 1 cell thick, half a cell off the nodes, never stuck, sliding on at 0.04 m/s, +27 % of Coulomb's slide).
+#: Round 97 (``docs/contact.md`` "Round 97: where a block on a thin support comes to rest"): True takes the rule to
+#: scenes whose bodies are all rigid (two, :func:`gasp_core.mpm.fields.rigid_pair`, or three or more coloured, round
+#: 62's pairs); False: off there (the rule before: a rigid block on a rigid board 1 cell thick, half a cell off the
+#: nodes, never stuck, sliding on at 0.04 m/s, +27 % of Coulomb's slide; two blocks on it slid -13.7 % short).
 RIGID_PAIR_FACE = True
 
 
 def face_share(setup) -> float:
     """``FACE_SHARE`` where a scene's two-field contact is between solids that do not flow and none is rigid (two
     soft bodies, or three or more coloured ones: :func:`gasp_core.mpm.fields.body_pair`), or (round 97,
-    :data:`RIGID_PAIR_FACE`) between two rigid bodies, else 0.0 (off: a flowing body's touch, a rigid body beside
-    soft ones: the moving collider's own band, ``rigid_collider.b_band``)."""
-    from gasp_core.mpm.fields import body_pair, rigid_pair
+    :data:`RIGID_PAIR_FACE`) between rigid bodies, all of the scene's, else 0.0 (off: a flowing body's touch, a rigid
+    body beside soft ones: the moving collider's own band, ``rigid_collider.b_band``)."""
+    from gasp_core.mpm.fields import body_pair
     from gasp_core.mpm.rigid import rigid_mask
     if not body_pair(setup):
         return 0.0
-    if np.asarray(rigid_mask(setup.materials)).any() and not (RIGID_PAIR_FACE and rigid_pair(setup)):
+    rigid = np.asarray(rigid_mask(setup.materials), bool)
+    if rigid.any() and not (RIGID_PAIR_FACE and rigid.all()):
         return 0.0
     return float(FACE_SHARE)
 
