@@ -236,13 +236,14 @@ def test_launches_and_syncs_per_substep(monkeypatch):
     ``fold_final``; on the cpu schedule one-thread ``mom_sum``; one pass a body, one body here: round 50's node
     labels are all 0, nothing launched for them). Round 65: both 4 more, the grid update's box and the viscous step's
     (each ``box_reset`` on one thread and ``field_box`` over the points; ``grid_box.py``: a viscous scene's grid update
-    over the box; ``viscosity.ImplicitViscosity.box``: its lists and labels over the box)."""
+    over the box; ``viscosity.ImplicitViscosity.box``: its lists and labels over the box). Round 97: both 1 more,
+    the ground's hold on the particle contact's points (``box_hold`` over the points, ``gasp_core.mpm.box_hold``)."""
     rec, _ = counts("viscous", "cpu", monkeypatch)
     n_it = sum(1 for k, _ in rec.launches if name(k) == "step_alpha")
     print(f"cpu schedule: {len(rec.launches)} launches, {rec.syncs} syncs, {n_it} CG iterations;",
           dict(zip(*np.unique([name(k) for k, _ in rec.launches], return_counts=True))))
     assert n_it >= 1
-    assert len(rec.launches) == 18 + 8 * n_it
+    assert len(rec.launches) == 19 + 8 * n_it
     assert rec.syncs == 2 + n_it
     # shift, lists, 1 + 2 n dots, begin, 2 n steps, mom_sum, fix, two box_reset
     assert sum(1 for _, d in rec.launches if d == 1) == 8 + 4 * n_it
@@ -253,7 +254,7 @@ def test_launches_and_syncs_per_substep(monkeypatch):
     print(f"gpu schedule: {len(rec.launches)} launches, {rec.syncs} syncs, {n_run} CG iterations run ({eff} "
           "effective);", dict(zip(*np.unique([name(k) for k, _ in rec.launches], return_counts=True))))
     assert n_run % G.CHECK_EVERY == 0 and n_run - G.CHECK_EVERY < eff <= n_run
-    assert len(rec.launches) == 28 + 10 * n_run
+    assert len(rec.launches) == 29 + 10 * n_run
     assert rec.syncs == n_run // G.CHECK_EVERY + 1
     # one thread: per body or support (contact_shift, fix_supports, fix_clear: one body, one support here), cg_begin,
     # fold_final, the momentum sum's fold_final, two box_reset; per iteration two fold_final, step_alpha, cg_beta
