@@ -313,14 +313,14 @@ def passive_bounds(setup, contact: str = "grid") -> tuple[np.ndarray, np.ndarray
     there they were left behind when the donut bounced and, when it landed again, carried out of the grid
     (``docs/contact.md``, "Passive points"). The marker of a body's surface cannot be where the body cannot
     be, so the engines put a passive point that ends an update outside this box back on its face (the
-    closest admissible point) and remove the velocity it stores into that face (:func:`hold_passive`). It
-    has no mass: no momentum or energy of the simulated body changes.
+    closest admissible point) and remove the velocity it stores into that face (:func:`hold_passive`). It has no
+    mass: no momentum or energy of the simulated body changes. (The material points' hold, ``box_hold``, reads it too.)
 
     - ``ground``: ``z >= height`` (the plane itself, with either contact model; the highest of several);
-    - ``walls``: ``lo_d + 3 dx <= x_d <= hi_d - 3 dx`` on each axis, the walls' planes (:data:`WALL_NODES`), with
-      either contact model (with a ground, no floor face: the ground is the floor, ``contact.wall_floor``, and since
-      round 97 for the particle contact too, as its planes, ``wall_faces``: its passive points were held on the floor's
-      plane, up to 3 cells above a lower ground): with ``contact = "grid"`` the walls' grid rule stops the node layers on the planes and
+    - ``walls``: ``lo_d + 3 dx <= x_d <= hi_d - 3 dx`` on each axis, the walls' planes (:data:`WALL_NODES`), but no
+      floor face with a ground, which is then the floor (``contact.wall_floor``, ``wall_faces``; round 97: for the
+      particle contact too, whose passive points were held on the floor's plane up to 3 cells above a lower ground;
+      ``contact`` no longer changes the box): with ``contact = "grid"`` the walls' grid rule stops the node layers on the planes and
       behind them (``gasp_core.mpm.contact.wall_grid_cells``); with ``contact = "particle"`` its points meet the
       planes (``contact.contact_planes``);
     - ``fixed_region``: nothing (its passive points are held where they start, like its material points);
