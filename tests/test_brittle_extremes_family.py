@@ -69,15 +69,21 @@ def energy(s, x, v, F, d) -> float:
 
 
 def landing(engine: str, shape: str, speed: float, contact: str) -> dict:
-    """Run :func:`body_setup` ``FRAMES`` frames: per frame the energy over the start's, the depth under the ground
-    (m, > 0 under it) and the distance past the domain's faces (m, > 0 past them); or the error that stopped it."""
+    """Run :func:`body_setup` ``FRAMES`` frames: :func:`record` against the domain's faces."""
     s = body_setup(engine, shape, speed, contact)
+    return record(engine, s, FRAMES, s.domain_lo, s.domain_hi)
+
+
+def record(engine: str, s, frames: int, lo, hi) -> dict:
+    """Run the setup ``s`` ``frames`` frames: per frame the energy over the start's (``E``), the depth under its first
+    boundary, a ground (``under``, m, > 0 under it) and the distance past the box ``[lo, hi]`` (``past``, m, > 0 past
+    it; shape (3,) each, m); or the error that stopped it (``error``, else None)."""
     n = len(s.x)
     e0 = energy(s, s.x, np.broadcast_to(s.v, s.x.shape), np.broadcast_to(np.eye(3), (n, 3, 3)), np.zeros(n))
     out = {"E": [], "under": [], "past": [], "error": None}
     eng = build_engine(engines()[engine], s)
     try:
-        for _ in range(FRAMES):
+        for _ in range(frames):
             eng.step_frame()
             x, v = np.asarray(eng.positions(), np.float64), np.asarray(eng.velocities(), np.float64)
             F = np.asarray(eng.to_setup_order(eng.get_state()["F"]), np.float64)
@@ -86,7 +92,7 @@ def landing(engine: str, shape: str, speed: float, contact: str) -> dict:
                 break
             out["E"].append(energy(s, x, v, F, np.asarray(eng.damage(), np.float64)) / e0)
             out["under"].append(float(s.boundaries[0].height - x[:, 2].min()))
-            out["past"].append(float(np.max(np.maximum(s.domain_lo - x, x - s.domain_hi))))
+            out["past"].append(float(np.max(np.maximum(np.asarray(lo) - x, x - np.asarray(hi)))))
     except Exception as ex:   # noqa: BLE001 - the family reports what stopped a run
         out["error"] = f"{type(ex).__name__}: {ex}"
     finally:

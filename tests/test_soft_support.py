@@ -50,6 +50,18 @@ def problem(engine: str, n_grid: int, support: float, shift: float, rigid: str =
     return None
 
 
+def family_problems(check) -> dict:
+    """``check(n_grid, support, shift)`` over ``thin_support96``'s family (36 cases): the cases it finds wrong."""
+    return {(n, c, sh): p for n in TS.GRIDS for c in TS.SUPPORTS for sh in TS.SHIFTS
+            if (p := check(n, c, sh)) is not None}
+
+
+def glue_missed(engine: str, monkeypatch, cases, rigid: str) -> list:
+    """The ``cases`` that :func:`problem` passes with ``RIGID_PAIR_FACE`` off (the rule before round 97)."""
+    monkeypatch.setattr(FS, "RIGID_PAIR_FACE", False)
+    return [case for case in cases if problem(engine, *case, rigid=rigid) is None]
+
+
 @pytest.mark.parametrize("engine", [engine_param("warp_mpm"), engine_param("taichi_mpm", marks=[pytest.mark.slow])])
 @pytest.mark.parametrize("n_grid,support,shift", WORST)
 def test_a_jelly_block_slides_on_a_thin_jelly_support(engine, n_grid, support, shift):
@@ -61,8 +73,7 @@ def test_a_jelly_block_slides_on_a_thin_jelly_support(engine, n_grid, support, s
 @pytest.mark.parametrize("engine", [engine_param("warp_mpm"), engine_param("taichi_mpm")])
 def test_the_thin_support_family(engine):
     """Every case of ``thin_support96``'s family (36 an engine; warp_mpm about 4 min, taichi_mpm about 12)."""
-    bad = {(n, c, sh): p for n in TS.GRIDS for c in TS.SUPPORTS for sh in TS.SHIFTS
-           if (p := problem(engine, n, c, sh)) is not None}
+    bad = family_problems(lambda n, c, sh: problem(engine, n, c, sh))
     assert not bad, f"{engine}: {bad}"
 
 
@@ -130,8 +141,7 @@ def test_a_jelly_block_slides_on_a_thin_rigid_slab(engine, n_grid, support, shif
 @pytest.mark.parametrize("engine", [engine_param("warp_mpm"), engine_param("taichi_mpm")])
 def test_the_thin_rigid_slab_family(engine):
     """Every case of ``thin_support96 --rigid support`` (36 an engine)."""
-    bad = {(n, c, sh): p for n in TS.GRIDS for c in TS.SUPPORTS for sh in TS.SHIFTS
-           if (p := rigid_problem(engine, n, c, sh)) is not None}
+    bad = family_problems(lambda n, c, sh: rigid_problem(engine, n, c, sh))
     assert not bad, f"{engine}: {bad}"
 
 
@@ -180,8 +190,7 @@ def test_a_rigid_block_comes_to_rest_on_a_thin_jelly_support(engine, n_grid, sup
 @pytest.mark.parametrize("engine", [engine_param("warp_mpm"), engine_param("taichi_mpm")])
 def test_the_rigid_block_family(engine, monkeypatch):
     """Every case of ``thin_support96 --rigid upper --fps 240`` (36 an engine)."""
-    bad = {(n, c, sh): p for n in TS.GRIDS for c in TS.SUPPORTS for sh in TS.SHIFTS
-           if (p := rest_problem(engine, n, c, sh, monkeypatch)) is not None}
+    bad = family_problems(lambda n, c, sh: rest_problem(engine, n, c, sh, monkeypatch))
     assert not bad, f"{engine}: {bad}"
 
 
@@ -222,8 +231,7 @@ def test_a_rigid_block_slides_on_a_thin_rigid_board(engine, n_grid, support, shi
 @pytest.mark.parametrize("engine", [engine_param("warp_mpm"), engine_param("taichi_mpm")])
 def test_the_thin_rigid_board_family(engine):
     """Every case of ``thin_support96 --rigid both`` (36 an engine)."""
-    bad = {(n, c, sh): p for n in TS.GRIDS for c in TS.SUPPORTS for sh in TS.SHIFTS
-           if (p := problem(engine, n, c, sh, rigid="both")) is not None}
+    bad = family_problems(lambda n, c, sh: problem(engine, n, c, sh, rigid="both"))
     assert not bad, f"{engine}: {bad}"
 
 
@@ -231,8 +239,7 @@ def test_the_thin_rigid_board_family(engine):
 def test_the_board_check_catches_the_glue_before(engine, monkeypatch):
     """``RIGID_PAIR_FACE`` off (the two rigid fields glued where the board's mass shows no normal: its one node
     layer, half a cell off) fails the first two of :data:`RIGID_PAIR_WORST`."""
-    monkeypatch.setattr(FS, "RIGID_PAIR_FACE", False)
-    missed = [case for case in RIGID_PAIR_WORST[:2] if problem(engine, *case, rigid="both") is None]
+    missed = glue_missed(engine, monkeypatch, RIGID_PAIR_WORST[:2], "both")
     assert not missed, f"{engine}: the check misses the glue before on {missed}"
 
 
@@ -254,14 +261,12 @@ def test_two_rigid_blocks_slide_on_a_thin_rigid_board(engine, n_grid, support, s
 @pytest.mark.parametrize("engine", [engine_param("warp_mpm"), engine_param("taichi_mpm")])
 def test_the_two_block_board_family(engine):
     """Every case of ``thin_support96 --rigid three`` (36 an engine)."""
-    bad = {(n, c, sh): p for n in TS.GRIDS for c in TS.SUPPORTS for sh in TS.SHIFTS
-           if (p := problem(engine, n, c, sh, rigid="three")) is not None}
+    bad = family_problems(lambda n, c, sh: problem(engine, n, c, sh, rigid="three"))
     assert not bad, f"{engine}: {bad}"
 
 
 @pytest.mark.parametrize("engine", [engine_param("warp_mpm"), engine_param("taichi_mpm", marks=[pytest.mark.slow])])
 def test_the_two_block_check_catches_the_glue_before(engine, monkeypatch):
     """``RIGID_PAIR_FACE`` off fails both of :data:`RIGID_THREE_WORST`."""
-    monkeypatch.setattr(FS, "RIGID_PAIR_FACE", False)
-    missed = [case for case in RIGID_THREE_WORST if problem(engine, *case, rigid="three") is None]
+    missed = glue_missed(engine, monkeypatch, RIGID_THREE_WORST, "three")
     assert not missed, f"{engine}: the check misses the glue before on {missed}"

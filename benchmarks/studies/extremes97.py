@@ -63,33 +63,16 @@ def setup(shape: str, speed: float, direction: str, n_grid: int, contact: str, s
 
 
 def row(engine: str, shape: str, speed: float, direction: str, n_grid: int, contact: str, strength: str) -> dict:
-    """One run of ``FRAMES`` frames: the worst energy ratio, depth under the ground and distance past a wall (m)."""
-    from test_brittle_extremes_family import energy
-    from gasp_core.seam.build import build_engine
-    from gasp_core.seam.plugins import engines
+    """One run of ``FRAMES`` frames (``test_brittle_extremes_family.record``): per frame the energy ratio, the depth
+    under the ground and the distance past the walls' planes on x and y (m)."""
+    from test_brittle_extremes_family import record
     s = setup(shape, speed, direction, n_grid, contact, strength)
-    n, dx = len(s.x), float(s.dx)
+    dx = float(s.dx)
     lo, hi = s.domain_lo + 3 * dx, s.domain_hi - 3 * dx
-    e0 = energy(s, s.x, np.broadcast_to(s.v, s.x.shape), np.broadcast_to(np.eye(3), (n, 3, 3)), np.zeros(n))
-    out = {"engine": engine, "shape": shape, "speed": speed, "direction": direction, "n_grid": n_grid,
-           "contact": contact, "strength": strength, "E": [], "under": [], "past": [], "error": None}
+    lo[2], hi[2] = -np.inf, np.inf   # the ground is the floor (read as ``under``)
     t0 = time.time()
-    eng = build_engine(engines()[engine], s)
-    try:
-        for _ in range(FRAMES):
-            eng.step_frame()
-            x, v = np.asarray(eng.positions(), np.float64), np.asarray(eng.velocities(), np.float64)
-            F = np.asarray(eng.to_setup_order(eng.get_state()["F"]), np.float64)
-            if not (np.isfinite(x).all() and np.isfinite(v).all() and np.isfinite(F).all()):
-                out["error"] = "non-finite"
-                break
-            out["E"].append(energy(s, x, v, F, np.asarray(eng.damage(), np.float64)) / e0)
-            out["under"].append(float(-x[:, 2].min()))
-            out["past"].append(float(np.max(np.maximum(lo[:2] - x[:, :2], x[:, :2] - hi[:2]))))
-    except Exception as ex:   # noqa: BLE001 - the study reports what stopped a run
-        out["error"] = f"{type(ex).__name__}: {ex}"
-    finally:
-        eng.close()
+    out = {"engine": engine, "shape": shape, "speed": speed, "direction": direction, "n_grid": n_grid,
+           "contact": contact, "strength": strength, **record(engine, s, FRAMES, lo, hi)}
     out["wall_s"] = time.time() - t0
     return out
 
