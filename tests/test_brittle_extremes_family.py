@@ -6,8 +6,9 @@ the walls, and the brittle README donut at 20 m/s on the default contact throws 
 The bodies: a box of 12 x 12 x 5 cm on a face and a ball of R 5 cm, filled with the faces' shares as a scene fills
 them (``benchmarks/brittle_drop_family.py``, n_grid 64, dx 9.4 mm) at the brittle defaults before issue 66's round
 31 (E 100 kPa, nu 0.3, rho 1000, f_t 1 kPa, G_f 10 J/m^2: ``OLD``, the weaker and harder case; today's defaults are
-10 kPa and 50 J/m^2), walls and a ground (friction 0.5), starting 5 mm above it. Under the ground: tolerance 0 m (the
-holds put a point on the plane itself, ``gasp_core.mpm.points.passive_bounds``). The energy (kinetic +
+10 kPa and 50 J/m^2), walls and a ground (friction 0.5), starting 5 mm above it. Under the ground and past the walls' planes (round 98: the domain's faces, 3 cells further
+out, before; ``benchmarks/studies/extremes97.py`` reads the planes): tolerance 1e-3 dx (:data:`HOLD_TOL`; the holds
+put a point on the plane itself, ``gasp_core.mpm.points.passive_bounds``, in float32). The energy (kinetic +
 gravitational + the Hencky elastic energy of the damaged stress) is checked at every frame against the start's.
 
 Measured before the fix (docs/fracture.md, "Stable at the extremes"): the grid contact left the box 1.25 mm and the
@@ -68,10 +69,28 @@ def energy(s, x, v, F, d) -> float:
                  + 0.5 * (s.p_vol * (sp * eps).sum(1)).sum())
 
 
+#: A point held on a plane in float32 may read this far past it (cells; ``benchmarks/studies/extremes97.py``'s
+#: ``HOLD_TOL``, ``tests/test_passive.py``'s: the planes' float32 rounding is about 1e-6 dx).
+HOLD_TOL = 1e-3
+
+
+def walls_box(s) -> tuple[np.ndarray, np.ndarray]:
+    """The walls' planes of the setup ``s`` on x and y (``lo + 3 dx``, ``hi - 3 dx``,
+    ``gasp_core.mpm.points.WALL_NODES``), m, shape (3,) each; z unbounded (the ground is the floor, read as
+    ``under``). Round 98: the family read the domain's faces, 3 cells further out, before."""
+    from gasp_core.mpm.points import WALL_NODES
+    dx = float(s.dx)
+    lo, hi = np.asarray(s.domain_lo, float) + WALL_NODES * dx, np.asarray(s.domain_hi, float) - WALL_NODES * dx
+    lo[2], hi[2] = -np.inf, np.inf
+    return lo, hi
+
+
 def landing(engine: str, shape: str, speed: float, contact: str) -> dict:
-    """Run :func:`body_setup` ``FRAMES`` frames: :func:`record` against the domain's faces."""
+    """Run :func:`body_setup` ``FRAMES`` frames: :func:`record` against the walls' planes (:func:`walls_box`)."""
     s = body_setup(engine, shape, speed, contact)
-    return record(engine, s, FRAMES, s.domain_lo, s.domain_hi)
+    r = record(engine, s, FRAMES, *walls_box(s))
+    r["tol"] = HOLD_TOL * float(s.dx)
+    return r
 
 
 def record(engine: str, s, frames: int, lo, hi) -> dict:
@@ -111,10 +130,10 @@ def family_failures(engine: str, contact: str, cases=None) -> list[str]:
             continue
         if max(r["E"]) > 1.0:
             bad.append(f"{tag}: energy {max(r['E']):.4f} of the start's")
-        if max(r["under"]) > 0.0:
+        if max(r["under"]) > r["tol"]:
             bad.append(f"{tag}: a point {max(r['under']) * 1e3:.3f} mm under the ground")
-        if max(r["past"]) > 0.0:
-            bad.append(f"{tag}: a point {max(r['past']) * 1e3:.3f} mm past the walls")
+        if max(r["past"]) > r["tol"]:
+            bad.append(f"{tag}: a point {max(r['past']) * 1e3:.3f} mm past a wall's plane")
     return bad
 
 

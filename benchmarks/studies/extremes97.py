@@ -65,11 +65,9 @@ def setup(shape: str, speed: float, direction: str, n_grid: int, contact: str, s
 def row(engine: str, shape: str, speed: float, direction: str, n_grid: int, contact: str, strength: str) -> dict:
     """One run of ``FRAMES`` frames (``test_brittle_extremes_family.record``): per frame the energy ratio, the depth
     under the ground and the distance past the walls' planes on x and y (m)."""
-    from test_brittle_extremes_family import record
+    from test_brittle_extremes_family import record, walls_box
     s = setup(shape, speed, direction, n_grid, contact, strength)
-    dx = float(s.dx)
-    lo, hi = s.domain_lo + 3 * dx, s.domain_hi - 3 * dx
-    lo[2], hi[2] = -np.inf, np.inf   # the ground is the floor (read as ``under``)
+    lo, hi = walls_box(s)   # the ground is the floor (read as ``under``)
     t0 = time.time()
     out = {"engine": engine, "shape": shape, "speed": speed, "direction": direction, "n_grid": n_grid,
            "contact": contact, "strength": strength, **record(engine, s, FRAMES, lo, hi)}

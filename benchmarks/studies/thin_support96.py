@@ -9,7 +9,8 @@ at offset 0 for whole cells); the grid shifted 0, 1/4 and 1/2 cell up against th
 stays at z = 0); the upper block 6 x 6 cm across and 3 cells thick. ``--face-share 0`` runs the rule before round 96
 (``gasp_core.mpm.face_share.FACE_SHARE``), the catch. Round 97 (``docs/contact.md`` "Round 97"): ``--rigid both``
 (the rigid pair) and ``three`` (two rigid blocks on a rigid board), and ``rest``, the slide to the moment the block
-comes to rest (``--fps 240``), before a jelly support's recoil.
+comes to rest (``--fps 240``), before a jelly support's recoil. Round 98 (``docs/contact.md`` "Round 98"): the
+three-body scenes mixed, ``--rigid rrj`` (block, support, block: r rigid, j jelly; :func:`three_code`).
 ``python benchmarks/studies/thin_support96.py --engine warp_mpm --out benchmarks/results/thin_support96_warp.json``
 (refused if the file exists).
 """
@@ -50,18 +51,30 @@ def setup(n_grid: int, support: float, shift: float, upper: float = UPPER, half:
     x = np.concatenate([xs, xb])
     v = np.zeros_like(x)
     v[:len(xs), 0] = bb.V0
-    rigid_b = [rigid in ("upper", "both", "three"), rigid in ("support", "both", "three")]
-    mats = [Material("jelly", model="rigid" if rigid_b[b] else "elastic", E=1.0e5, nu=0.3, rho=1000.0)
-            for b in range(2)]
+    code = three_code(rigid)
+    rigid_b = ([rigid in ("upper", "both"), rigid in ("support", "both")] if code is None
+               else [c == "r" for c in code])
+    mats = [Material("jelly", model="rigid" if r else "elastic", E=1.0e5, nu=0.3, rho=1000.0) for r in rigid_b]
     vol, body = [np.full(len(xs), vs), np.full(len(xb), vb)], [np.zeros(len(xs), int), np.ones(len(xb), int)]
-    if rigid == "three":   # a second rigid block 16 cm on, thrown alike (round 62's pairs: three bodies coloured)
+    if code is not None:   # a second block 16 cm on, thrown alike (round 62's pairs: three bodies coloured)
         x, v = np.concatenate([x, xs + [0.16, 0.0, 0.0]]), np.concatenate([v, v[:len(xs)]])
-        vol, body, mats = vol + [vol[0]], body + [np.full(len(xs), 2)], mats + [mats[0]]
+        vol, body = vol + [vol[0]], body + [np.full(len(xs), 2)]
     s = SimSetup(x=x, v=v, p_vol=np.concatenate(vol), body_id=np.concatenate(body), materials=mats,
                  gravity=np.array([0.0, 0.0, -bb.G]), domain_lo=lo, domain_hi=lo + bb.SIDE, n_grid=n_grid,
                  frame_dt=1.0 / bb.FPS, boundaries=[Boundary("ground", height=0.0, friction=0.0)])
     s.n_render = 0
     return s
+
+
+def three_code(rigid: str):
+    """The three-body scenes' models, block 0, the support and block 2, each "r" (rigid) or "j" (jelly): ``three`` is
+    "rrr" (round 97); round 98 names the mixed ones by their code ("rrj": a rigid and a jelly block on a rigid board,
+    "rjj", "jjj", "jrj"); None for the two-body scenes."""
+    if rigid == "three":
+        return "rrr"
+    if len(rigid) == 3 and set(rigid) <= {"r", "j"}:
+        return rigid
+    return None
 
 
 def row(engine: str, n_grid: int, support: float, shift: float, rigid: str = "", output=None) -> dict:
@@ -71,7 +84,7 @@ def row(engine: str, n_grid: int, support: float, shift: float, rigid: str = "",
     ``bb.measure``'s (a broken engine's separation per frame)."""
     s = setup(n_grid, support, shift, rigid=rigid)
     t0 = time.time()
-    if rigid == "three":
+    if three_code(rigid) is not None:
         return three_row(engine, s, {"engine": engine, "rigid": rigid, "n_grid": n_grid, "support_cells": support,
                                      "shift": shift, "V0": bb.V0, "fps": bb.FPS}, t0)
     seps = []
@@ -86,7 +99,7 @@ def row(engine: str, n_grid: int, support: float, shift: float, rigid: str = "",
 
 def three_row(engine: str, s, out: dict, t0: float) -> dict:
     """Round 97, ``--rigid three``: two rigid blocks (bodies 0 and 2, mass ``m1`` together) thrown alike on a rigid
-    board (body 1, ``m2``): each comes to rest on it after ``V0^2 / (2 mu g (1 + m1 / m2))`` and the board ends at
+    board (body 1, ``m2``; round 98: any of the three jelly, :func:`three_code`): each comes to rest on it after ``V0^2 / (2 mu g (1 + m1 / m2))`` and the board ends at
     ``V0 m1 / (m1 + m2)``. ``rest``, ``slide``: the block whose figure is the farther from it."""
     from gasp_core.mpm.fields import body_friction, combine_friction
     from gasp_core.seam import build_engine, get_engine
@@ -100,6 +113,7 @@ def three_row(engine: str, s, out: dict, t0: float) -> dict:
     c = [(X[:, body == k, 0] * pm[body == k]).sum(1) / pm[body == k].sum() for k in range(3)]
     m1, m2 = pm[body != 1].sum(), pm[body == 1].sum()
     mu = combine_friction(body_friction(s.materials[0]), body_friction(s.materials[1]))
+    assert mu == combine_friction(body_friction(s.materials[2]), body_friction(s.materials[1]))
     d0, vf = float(bb.V0 ** 2 / (2 * mu * bb.G * (1 + m1 / m2))), float(bb.V0 * m1 / (m1 + m2))
     rests = [float(np.max(c[k] - c[1]) - (c[k] - c[1])[0]) for k in (0, 2)]
     ends = [float((c[k] - c[1])[-1] - (c[k] - c[1])[0]) for k in (0, 2)]
@@ -116,7 +130,7 @@ def main(argv=None) -> int:
     ap.add_argument("--grids", default=",".join(map(str, GRIDS)))
     ap.add_argument("--face-share", type=float, default=None, help="gasp_core.mpm.face_share.FACE_SHARE (0: off)")
     ap.add_argument("--rigid", default="", help="upper or support: that body rigid (a mixed pair); both: the rigid pair; three: two rigid "
-                    "blocks on a rigid board")
+                    "blocks on a rigid board; round 98: a three-letter code of r and j (block, support, block)")
     ap.add_argument("--v0", type=float, default=bb.V0, help="the upper block's throw, m/s")
     ap.add_argument("--fps", type=int, default=bb.FPS, help="frames a second (round 97: 240 reads the rest's slide "
                     "to 0.2 %% of it)")

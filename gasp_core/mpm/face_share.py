@@ -42,18 +42,32 @@ FACE_SHARE = 0.1
 #: nodes, never stuck, sliding on at 0.04 m/s, +27 % of Coulomb's slide; two blocks on it slid -13.7 % short).
 RIGID_PAIR_FACE = True
 
+#: Round 98 (``docs/contact.md`` "Round 98: three bodies mixed"): True keeps the rule on in a coloured scene (three or
+#: more bodies) that mixes rigid and soft ones, whose rigid/soft nodes the moving collider takes
+#: (:func:`gasp_core.mpm.rigid_collider.collider_multi`): it writes those nodes after the contact's pass, so the rule then acts at the soft/soft nodes (and, with
+#: :data:`RIGID_PAIR_FACE`, the rigid/rigid ones) alone. False: off in every such scene (the rule before: a jelly block
+#: on a jelly support 1 cell thick beside a rigid block slid -22 % and -81 % short of Coulomb's distance with the grid
+#: a quarter and half a cell off, round 96's failure back).
+MIXED_FACE = True
+
 
 def face_share(setup) -> float:
     """``FACE_SHARE`` where a scene's two-field contact is between solids that do not flow and none is rigid (two
     soft bodies, or three or more coloured ones: :func:`gasp_core.mpm.fields.body_pair`), or (round 97,
-    :data:`RIGID_PAIR_FACE`) between rigid bodies, all of the scene's, else 0.0 (off: a flowing body's touch, a rigid
-    body beside soft ones: the moving collider's own band, ``rigid_collider.b_band``)."""
+    :data:`RIGID_PAIR_FACE`) between rigid bodies, all of the scene's, or (round 98, :data:`MIXED_FACE`) in a scene of
+    both, three or more coloured, where the moving collider takes the rigid/soft nodes
+    (``rigid_collider.collider_multi``; the collider's band keeps its own test, ``b_band``), else 0.0
+    (off: a rigid body beside one soft body, whose every shared node the collider writes)."""
     from gasp_core.mpm.fields import body_pair
     from gasp_core.mpm.rigid import rigid_mask
+    from gasp_core.mpm.rigid_collider import collider_multi
     if not body_pair(setup):
         return 0.0
     rigid = np.asarray(rigid_mask(setup.materials), bool)
-    if rigid.any() and not (RIGID_PAIR_FACE and rigid.all()):
+    if rigid.all():
+        return float(FACE_SHARE) if RIGID_PAIR_FACE else 0.0
+    if rigid.any() and not (MIXED_FACE and collider_multi(setup)
+                            and (RIGID_PAIR_FACE or int(rigid.sum()) < 2)):
         return 0.0
     return float(FACE_SHARE)
 
@@ -79,3 +93,13 @@ def faced(grad_b, grad_a, m_b, share: float = FACE_SHARE) -> np.ndarray:
     if not share > 0.0:
         return np.ones(len(gb), bool)
     return -(gb * ga).sum(axis=1) > share * np.asarray(m_b, np.float64) * np.linalg.norm(ga, axis=1)
+
+
+def b_band() -> tuple[float, float]:
+    """Round 96: ``(band, share)`` of the moving collider's band where the rigid body is field B
+    (:mod:`gasp_core.mpm.rigid_collider`): its ``FACE_BAND`` (cells) and :data:`FACE_SHARE` with the face rule on;
+    its ``BAND`` and 0.0 with it off (``FACE_SHARE`` 0: the rule before, the catch). Here since round 98 (it was
+    ``b_band``), so that :func:`face_share` may read the collider's switches without a loop."""
+    from gasp_core.mpm.rigid_collider import BAND, FACE_BAND
+    share = float(FACE_SHARE)
+    return (float(FACE_BAND), share) if share > 0.0 else (float(BAND), 0.0)

@@ -243,12 +243,3 @@ def collider_data(setup) -> dict | None:
             out = {"bodies": rigid.astype(np.int32), "cols": np.zeros(nb, np.int32),
                    "mus": slot_frictions(view.materials, rigid)[:, None], "multi": True}
     return out
-
-
-def b_band() -> tuple[float, float]:
-    """Round 96: ``(band, share)`` of the band where the rigid body is field B: :data:`FACE_BAND` (cells) and
-    ``face_share.FACE_SHARE`` with the face rule on; :data:`BAND` and 0.0 with it off (``FACE_SHARE`` 0: the rule
-    before, the catch)."""
-    import gasp_core.mpm.face_share as face_share
-    share = float(face_share.FACE_SHARE)
-    return (float(FACE_BAND), share) if share > 0.0 else (float(BAND), 0.0)

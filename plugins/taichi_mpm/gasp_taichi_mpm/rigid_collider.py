@@ -19,6 +19,7 @@ import numpy as np
 import taichi as ti
 
 from gasp_core.mpm import rigid_collider as core_collider
+from gasp_core.mpm.face_share import b_band
 from gasp_core.mpm.fields import MIN_FRACTION, MIN_GRADIENT
 
 from .collider_pair import NA, NP, ColliderPair
@@ -49,7 +50,7 @@ class RigidCollider(ColliderPair, PointContact):
         bodies = np.asarray(collider["bodies"], np.int32)
         self.rc_ns, self.rc_multi = len(bodies), int(collider["multi"])
         self.rc_band = float(core_collider.BAND)
-        self.rc_band_b, self.rc_face = core_collider.b_band()   # round 96: a rigid field B's band and face test
+        self.rc_band_b, self.rc_face = b_band()   # round 96: a rigid field B's band and face test
         self.rc_pad = float(NODE_PAD)
         self.rc_react_on = int(REACT)
         self.rc_friction = float(FRICTION)

@@ -7,6 +7,7 @@ import numpy as np
 import warp as wp
 
 from gasp_core.mpm import rigid_collider as core_collider
+from gasp_core.mpm.face_share import b_band
 from gasp_core.mpm.rigid import affine_dx
 
 from . import collider_pair as cp
@@ -59,7 +60,7 @@ def with_mark(eng, Ft, launches: list) -> list:
     walls = eng.wall_mu.shape[0] > 0   # the walls' reach as fields.field_launches gives it
     side = (np.asarray(eng.setup.domain_hi, float) - np.asarray(eng.setup.domain_lo, float)) / eng.dx
     wall_lo, wall_hi = (eng.wall_in, side - eng.wall_in) if walls else (-1.0, np.full(3, 1e30))
-    band_b, face = core_collider.b_band()
+    band_b, face = b_band()
     sweep = sweep_args(eng)   # round 69: the launch's size is the sweep's threads (it was shared_threads: equal)
     mark = wp.launch(rc.build_collider(Ft)[0], dim=sweep[1], device=eng.device, record_cmd=True, inputs=[
         eng.grid_mv, eng.grid_sv, eng.grid_vf, eng.n_grid, eng.ground, Ft(eng.dx ** 3), Ft(wall_lo),
@@ -68,7 +69,7 @@ def with_mark(eng, Ft, launches: list) -> list:
         int(bool(GROUND_MIRROR)), float(core_collider.BAND * eng.dx),
         eng.k.vec3(*[float(c) for c in eng.setup.domain_lo]), Ft(eng.dx), eng.rc_o, eng.rb_c, eng.rb_R, eng.rc_box,
         float(NODE_PAD * eng.dx), eng.rc_sb, eng.rc_pt, *sweep, float(band_b * eng.dx), Ft(face)])   # round 68: over
-    # the box sweep; round 96: a rigid field B's band and face test (gasp_core.mpm.rigid_collider.b_band)
+    # the box sweep; round 96: a rigid field B's band and face test (gasp_core.mpm.face_share.b_band)
     if eng.rc_pt.numpy().any():   # round 66: the fields' node masses for the point contact (point_contact.py)
         from .point_contact import mass_launch
         mark = [mark, mass_launch(eng, Ft)]
