@@ -174,7 +174,8 @@ def test_the_family_catches_a_grid_contact_without_the_grounds_hold(engine, monk
     needs_package(f"gasp_{engine}")
     _without_the_box_hold(monkeypatch, engine)
     bad = family_failures(engine, "grid", [("box", 50.0), ("ball", 50.0)])
-    assert len(bad) == 2 and all("under the ground" in b for b in bad), bad
+    # round 98: read against the walls' planes, the broken engine also puts points 0.43-0.69 mm past a wall
+    assert sorted(b.split(":")[0] for b in bad if "under the ground" in b) == ["ball at 50.0 m/s", "box at 50.0 m/s"], bad
 
 
 def donut_at(engine: str, speed: float, frames: int) -> dict:
@@ -207,10 +208,15 @@ def test_the_donut_check_catches_a_verdict_read_on_the_passive_points(monkeypatc
     """The verdict read on every point, with the passive gather before round 38 (by the B-spline weight alone): its
     passive points outrun a cell a substep and the run stops at frame 1. With round 38's gather (by mass, the gradient
     along the spanned directions) the same verdict no longer stops it (2 frames, energy 0.52, 145 045 points left the
-    domain; taichi_mpm, 2026-11-28): the gather keeps the skin with the material, so the catch takes both back."""
+    domain; taichi_mpm, 2026-11-28): the gather keeps the skin with the material, so the catch takes both back.
+    Round 98: since round 97's hold of the particle contact's points in the ground's and walls' box
+    (``gasp_core.mpm.box_hold.PARTICLE_HOLD``) those two alone no longer stop it (1 frame, energy 0.35, 78,045 points
+    left the domain; taichi_mpm, 2026-12-07): the catch takes the hold back too (then it stops at frame 1, 16,054
+    points leaving the grid faster than a cell a substep)."""
     needs_package("gasp_taichi_mpm")
     import gasp_taichi_mpm.engine as te
-    from gasp_core.mpm import grid_tables
+    from gasp_core.mpm import box_hold, grid_tables
     monkeypatch.setattr(te, "blow_up_rows", lambda v, passive: v)
     monkeypatch.setattr(grid_tables, "PASSIVE_SPANNED", False)
+    monkeypatch.setattr(box_hold, "PARTICLE_HOLD", False)
     assert "diverged" in donut_at("taichi_mpm", 20.0, 1)
