@@ -104,8 +104,9 @@ def row(engine: str, n_grid: int, support: float, shift: float, rigid: str = "",
 
 def three_row(engine: str, s, out: dict, t0: float) -> dict:
     """Round 97, ``--rigid three``: two rigid blocks (bodies 0 and 2, mass ``m1`` together) thrown alike on a rigid
-    board (body 1, ``m2``; round 98: any of the three jelly, :func:`three_code`): each comes to rest on it after ``V0^2 / (2 mu g (1 + m1 / m2))`` and the board ends at
-    ``V0 m1 / (m1 + m2)``. ``rest``, ``slide``: the block whose figure is the farther from it."""
+    board (body 1, ``m2``; round 98: any of the three jelly, :func:`three_code`): each comes to rest on it after
+    ``V0^2 / (2 mu g (1 + m1 / m2))`` and the board ends at ``V0 m1 / (m1 + m2)``. ``rest``, ``slide``: the block
+    whose figure is the farther from it."""
     from gasp_core.mpm.fields import body_friction, combine_friction
     from gasp_core.seam import build_engine, get_engine
     pm, body = np.asarray(s.p_mass, float), np.asarray(s.body_id)
@@ -142,8 +143,8 @@ def main(argv=None) -> int:
     ap.add_argument("--v0", type=float, default=bb.V0, help="the upper block's throw, m/s")
     ap.add_argument("--fps", type=int, default=bb.FPS, help="frames a second (round 97: 240 reads the rest's slide "
                     "to 0.2 %% of it)")
-    ap.add_argument("--length", type=float, default=LENGTH, help="round 98: the support's length, m (0.36 keeps its far "
-                    "end in the grid)")
+    ap.add_argument("--length", type=float, default=LENGTH,
+                    help="round 98: the support's length, m (0.36 keeps its far end in the grid)")
     ap.add_argument("--out", default=None, help="a new JSON file for the rows (refused if it exists)")
     a = ap.parse_args(argv)
     globals()["LENGTH"] = a.length

@@ -44,10 +44,10 @@ RIGID_PAIR_FACE = True
 
 #: Round 98 (``docs/contact.md`` "Round 98: three bodies mixed"): True keeps the rule on in a coloured scene (three or
 #: more bodies) that mixes rigid and soft ones, whose rigid/soft nodes the moving collider takes
-#: (:func:`gasp_core.mpm.rigid_collider.collider_multi`): it writes those nodes after the contact's pass, so the rule then acts at the soft/soft nodes (and, with
-#: :data:`RIGID_PAIR_FACE`, the rigid/rigid ones) alone. False: off in every such scene (the rule before: a jelly block
-#: on a jelly support 1 cell thick beside a rigid block slid -22 % and -81 % short of Coulomb's distance with the grid
-#: a quarter and half a cell off, round 96's failure back).
+#: (:func:`gasp_core.mpm.rigid_collider.collider_multi`): it writes those nodes after the contact's pass, so the rule
+#: then acts at the soft/soft nodes (and, with :data:`RIGID_PAIR_FACE`, the rigid/rigid ones) alone. False: off in every
+#: such scene (the rule before: a jelly block on a jelly support 1 cell thick beside a rigid block came to rest -22 %
+#: and -82 % short of Coulomb's distance with the grid a quarter and half a cell off, round 96's failure back).
 MIXED_FACE = True
 
 
@@ -99,7 +99,7 @@ def b_band() -> tuple[float, float]:
     """Round 96: ``(band, share)`` of the moving collider's band where the rigid body is field B
     (:mod:`gasp_core.mpm.rigid_collider`): its ``FACE_BAND`` (cells) and :data:`FACE_SHARE` with the face rule on;
     its ``BAND`` and 0.0 with it off (``FACE_SHARE`` 0: the rule before, the catch). Here since round 98 (it was
-    ``b_band``), so that :func:`face_share` may read the collider's switches without a loop."""
+    ``rigid_collider.b_band``), so that :func:`face_share` may read the collider's switches without a loop."""
     from gasp_core.mpm.rigid_collider import BAND, FACE_BAND
     share = float(FACE_SHARE)
     return (float(FACE_BAND), share) if share > 0.0 else (float(BAND), 0.0)
