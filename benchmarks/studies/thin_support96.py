@@ -109,6 +109,7 @@ def three_row(engine: str, s, out: dict, t0: float) -> dict:
     whose figure is the farther from it."""
     from gasp_core.mpm.fields import body_friction, combine_friction
     from gasp_core.seam import build_engine, get_engine
+    from gasp_core.seam.runner import left_grid
     pm, body = np.asarray(s.p_mass, float), np.asarray(s.body_id)
     e = build_engine(get_engine(engine), s)
     X = [np.asarray(s.x, float)]
@@ -126,8 +127,7 @@ def three_row(engine: str, s, out: dict, t0: float) -> dict:
     k = round(0.1 * bb.FPS)
     v2 = float((c[1][-1] - c[1][-1 - k]) * bb.FPS / k)
     rest, d = max(rests, key=lambda r: abs(r / d0 - 1.0)), max(ends, key=lambda r: abs(r / d0 - 1.0))
-    dx = float(s.dx)   # round 98: the points out of the grid at the end (in_grid: lo + dx / 2 <= x < hi - 3 dx / 2)
-    left = int(np.sum(np.any((X[-1] < s.domain_lo + dx / 2) | (X[-1] >= s.domain_hi - 1.5 * dx), axis=1)))
+    left = int(left_grid(X[-1], s).sum())   # round 98: the points out of the grid at the end (feature left_domain)
     return {**out, "slide": d, "slide_want": d0, "slide_err": d / d0 - 1.0, "rest": rest, "rest_err": rest / d0 - 1.0,
             "lower": v2, "lower_want": vf, "lower_err": v2 / vf - 1.0, "left": left, "length": LENGTH,
             "wall_s": time.time() - t0}
