@@ -157,11 +157,12 @@ def problem(want: dict, fig: dict) -> str | None:
     return "; ".join(out) or None
 
 
-def row(engine: str, radius: float, n_grid: int, sampling: str, mu: float, shape: str = "ball") -> dict:
-    """One case on ``engine``: its figures (``test_rolling.measure``'s), the closed form and the verdict."""
+def row(engine: str, radius: float, n_grid: int, sampling: str, mu: float, shape: str = "ball", seed: int = 0) -> dict:
+    """One case on ``engine``: its figures (``test_rolling.measure``'s), the closed form and the verdict. ``seed``:
+    the ``scan`` sampling's draw (round 99; 0 the family's)."""
     from gasp_core.seam.setup import Boundary, Material
     from gasp_core.testing.helpers import make_setup
-    x, p_vol, n_render = body(shape, radius, n_grid, sampling)
+    x, p_vol, n_render = body(shape, radius, n_grid, sampling, seed)
     t = math.radians(rl.THETA)
     s = make_setup(x, p_vol, Material("jelly", model="rigid", E=1.0e10, nu=0.3, rho=700.0),
                    gravity=(rl.G * math.sin(t), 0.0, -rl.G * math.cos(t)), lo=np.zeros(3), hi=np.full(3, rl.SIDE),
@@ -217,15 +218,21 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--engine", default="warp_mpm")
     ap.add_argument("--shapes", default="ball,cylinder", help="ball, cylinder or both (comma-separated)")
+    ap.add_argument("--seeds", default=None, help="round 99: the scan sampling's draws (comma-separated, e.g. 1,2,3,4); "
+                    "with it only the family's scan rows run, once a seed")
     ap.add_argument("--out", default=None, help="a new JSON file for the rows (refused if it exists)")
     a = ap.parse_args(argv)
     out = new_out(ap, a.out)
+    seeds = [int(k) for k in a.seeds.split(",")] if a.seeds else [0]
     rows = []
     for shape in a.shapes.split(","):
         for radius, n_grid, sampling in family(shape):
-            for mu in MUS:
-                rows.append(row(a.engine, radius, n_grid, sampling, mu, shape))
-                print(report(rows[-1]), flush=True)
+            if a.seeds and sampling != "scan":
+                continue
+            for seed in seeds:
+                for mu in MUS:
+                    rows.append({**row(a.engine, radius, n_grid, sampling, mu, shape, seed), "seed": seed})
+                    print(report(rows[-1]) + (f" (seed {seed})" if a.seeds else ""), flush=True)
     write_rows(out, rows)
     return 0
 

@@ -17,6 +17,7 @@ The body's motion is read relative to the slab's (the ground holds the slab to a
 from __future__ import annotations
 
 import argparse
+import itertools
 import sys
 import time
 from pathlib import Path
@@ -42,9 +43,10 @@ def family() -> list[tuple[float, int, str]]:
                                                                       for s in RF.SAMPLINGS if s != "fibonacci"]
 
 
-def setup(shape: str, radius: float, n_grid: int, sampling: str, mu: float, slab: str = "lattice"):
+def setup(shape: str, radius: float, n_grid: int, sampling: str, mu: float, slab: str = "lattice", seed: int = 1):
     """``(SimSetup, k, n_render)``: body 0 the round body (its Gaussians first), body 1 the slab: a lattice at
-    ``dx / 2``, and with ``slab`` "scan" (round 93) Gaussians on its top face as a scanned table's (:func:`scan_top`)."""
+    ``dx / 2``, and with ``slab`` "scan" (round 93) Gaussians on its top face as a scanned table's (:func:`scan_top`,
+    its draw ``seed``)."""
     from gasp_core.seam.setup import Boundary, Material, SimSetup
     from gasp_core.testing.helpers import box_points
     dx = SIDE / n_grid
@@ -53,7 +55,7 @@ def setup(shape: str, radius: float, n_grid: int, sampling: str, mu: float, slab
     x = x - (vol[:, None] * x).sum(0) / vol.sum() + np.array([-0.06, 0.0, 0.03 + radius])
     xs, pvs = box_points([-0.12, -0.12, 0.0], [0.20, 0.12, 0.03], dx / 2)
     if slab == "scan":
-        xs = np.concatenate([scan_top(dx), xs])
+        xs = np.concatenate([scan_top(dx, seed), xs])
     th = np.radians(rl.THETA)
     mats = [Material("jelly", model="rigid", E=1.0e10, nu=0.3, rho=700.0, friction=mu) for _ in range(2)]
     lo = np.array([-0.20, -SIDE / 2, -3 * dx])
@@ -109,12 +111,13 @@ def figures(engine: str, s, radius: float) -> dict:
             "v": float(vs[-1][0]), "slab": slab, "sink": float(c[0, 2] - c[:, 2].min())}
 
 
-def row(engine: str, shape: str, radius: float, n_grid: int, sampling: str, mu: float, slab: str = "lattice") -> dict:
-    s, k, n_render = setup(shape, radius, n_grid, sampling, mu, slab)
+def row(engine: str, shape: str, radius: float, n_grid: int, sampling: str, mu: float, slab: str = "lattice",
+        seed: int = 1) -> dict:
+    s, k, n_render = setup(shape, radius, n_grid, sampling, mu, slab, seed)
     t0 = time.time()
     fig = figures(engine, s, radius)
     return {**RF.record(engine, shape, radius, n_grid, sampling, n_render, mu, k, fig, time.time() - t0),
-            "slab": fig["slab"], "sink": fig["sink"], "slab_sampling": slab}
+            "slab": fig["slab"], "sink": fig["sink"], "slab_sampling": slab, "seed": seed}
 
 
 def main(argv=None) -> int:
@@ -126,6 +129,9 @@ def main(argv=None) -> int:
     ap.add_argument("--round-normal", type=int, default=1, help="gasp_core.mpm.rigid_pairs.ROUND_NORMAL (0: the "
                                                                    "nodes' normal, round 90's, the broken variant)")
     ap.add_argument("--slab", default="lattice", help="lattice, or scan (round 93: Gaussians on its top face)")
+    ap.add_argument("--seeds", default="1", help="round 99: the scan slab's draws (comma-separated; 1 the tests')")
+    ap.add_argument("--cases", default="all", help="all (the family), or test (round 99: the scanned slab's test "
+                                                  "case alone, R 0.05 m, n_grid 32, fibonacci)")
     ap.add_argument("--out", default=None, help="a new JSON file for the rows (refused if it exists)")
     a = ap.parse_args(argv)
     import gasp_core.mpm.rigid_pairs as rp
@@ -134,10 +140,11 @@ def main(argv=None) -> int:
     out = RF.new_out(ap, a.out)
     rows = []
     for shape in a.shapes.split(","):
-        for radius, n_grid, sampling in family():
+        cases = family() if a.cases == "all" else [(0.05, 32, "fibonacci")]
+        for (radius, n_grid, sampling), seed in itertools.product(cases, (int(k) for k in a.seeds.split(","))):
             for mu in RF.MUS:
-                rows.append(row(a.engine, shape, radius, n_grid, sampling, mu, a.slab))
-                print(RF.report(rows[-1]), f"(slab {rows[-1]['slab']:.4f} m/s, sink {rows[-1]['sink'] * 1e3:.2f} mm)",
+                rows.append(row(a.engine, shape, radius, n_grid, sampling, mu, a.slab, seed))
+                print(RF.report(rows[-1]), f"(slab {rows[-1]['slab']:.4f} m/s, sink {rows[-1]['sink'] * 1e3:.2f} mm, seed {seed})",
                       flush=True)
     RF.write_rows(out, rows)
     return 0
