@@ -62,7 +62,7 @@ from gasp_core.scene.tables import DomainSpec, EngineSpec, read_boundary, read_d
 from gasp_core.scene.values import (MAX_COORD, MAX_GRAVITY, MAX_SPEED, MAX_SPIN, SCALE_RANGE, UP_AXES, as_boolean,
                                     as_integer, as_number, as_string, as_table, as_tables, as_vec3, bad_value,
                                     check_keys, is_number, read_key, resolve_path)
-from gasp_core.seam.setup import Boundary, Material
+from gasp_core.seam.setup import FRAME_DT_RANGE, Boundary, Material
 
 #: ``[[object]] surface``: the triangle vertices are material points, or passive (massless, carried), or
 #: chosen by the rule of :mod:`gasp_core.prepare.surface` ("auto", what the quality levels set).
@@ -395,6 +395,6 @@ def parse_scene(data: dict, src: Path, quality: str | None = None) -> Scene:
         **extras, path=src, objects=objects, engine=engine, domain=domain, boundaries=boundaries,
         gravity=read_key(data, "gravity", as_vec3, default_from=Scene, where="", src=src, max_norm=MAX_GRAVITY,
                          unit=" m/s^2"),
-        frame_dt=read_key(data, "frame_dt", as_number, 0.0, default_from=Scene, where="", src=src, lo_open=True),
+        frame_dt=read_key(data, "frame_dt", as_number, *FRAME_DT_RANGE, default_from=Scene, where="", src=src),
         n_frames=n_frames, output=output, name=as_string(data.get("name", src.stem), "name", src), quality=level,
         **{k: read_key(data, k, as_boolean, default_from=Scene, where="", src=src) for k in ("sleep", "settle")})

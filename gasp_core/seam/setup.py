@@ -22,6 +22,11 @@ MATERIALS = frozenset(MATERIAL_KINDS)
 #: Boundary kinds an engine may offer (capability names).
 BOUNDARIES = frozenset({"ground", "walls", "fixed_region"})
 
+#: The seconds a frame may last (``SimSetup.frame_dt``, the scene's ``frame_dt``): from a nanosecond to an hour.
+#: Outside it the engines' step arithmetic overflows (``(1 / dt)^2`` at 1e-300 s, ``frame_dt^2`` at 1e300 s) long
+#: before any physics is reached; within it ``max_substeps`` bounds the work.
+FRAME_DT_RANGE = (1.0e-9, 3600.0)
+
 
 def grid_spacing(domain_lo, domain_hi, n_grid: int) -> float:
     """Grid spacing ``dx``, metres: the longest domain side divided by ``n_grid`` (the one formula)."""
@@ -256,7 +261,7 @@ class SimSetup:
         Grid cells along the longest domain side (grid engines); sets ``dx``.
     boundaries : list of Boundary
     frame_dt : float
-        Seconds between output frames.
+        Seconds between output frames, within :data:`FRAME_DT_RANGE` (a nanosecond to an hour).
     n_render : int
         Number of leading points that carry Gaussians.
     options : dict
@@ -361,8 +366,9 @@ class SimSetup:
                              f"{self.domain_lo.tolist()} / {self.domain_hi.tolist()}")
         if not (isinstance(self.n_grid, (int, np.integer)) and self.n_grid >= 4):
             raise SceneError(f"SimSetup.n_grid = {self.n_grid!r}; expected an integer >= 4")
-        if not (self.frame_dt > 0 and np.isfinite(self.frame_dt)):
-            raise SceneError(f"SimSetup.frame_dt = {self.frame_dt}; expected a positive number of seconds")
+        if not (FRAME_DT_RANGE[0] <= self.frame_dt <= FRAME_DT_RANGE[1]):
+            raise SceneError(f"SimSetup.frame_dt = {self.frame_dt}; expected a number of seconds in "
+                             f"[{FRAME_DT_RANGE[0]:g}, {FRAME_DT_RANGE[1]:g}]")
         band = self.crack_band
         for i, m in enumerate(self.materials):
             m.check(f"SimSetup.materials[{i}] ({m.name!r})")
