@@ -56,3 +56,60 @@ def test_the_check_catches_the_open_range_before(tmp_path, donut_small, capsys, 
     code = main(["simulate", str(frame_scene(tmp_path, donut_small, "1e-300")), "-o", str(tmp_path / "out"), "-q"])
     err = capsys.readouterr().err
     assert code == 4 and "OverflowError" in err
+
+
+# ---------------------------------------- a second ground, and a snow whose stiffening leaves exp's range
+
+
+def test_a_second_ground_or_walls_is_one_line_naming_both(tmp_path, donut_small, capsys):
+    """Two grounds at 0 and 0.5 m ran: the start check read the lower, the engines held every point above the higher
+    (the donut, 5 cm up, started 0.45 m inside it) and said nothing."""
+    for extra, kind in (('[[boundary]]\nkind = "ground"\nheight = 0.5\n', "ground"),
+                        ('[[boundary]]\nkind = "walls"\n[[boundary]]\nkind = "walls"\nfriction = 0.1\n', "walls")):
+        scene = tmp_path / f"{kind}.toml"
+        scene.write_text(scene_text(donut_small, n_frames=1, n_grid=16, engine="warp_mpm").replace(
+            "[[object]]", extra + "[[object]]", 1))
+        code = main(["simulate", str(scene), "-o", str(tmp_path / "out"), "-q"])
+        err = capsys.readouterr().err
+        lines = [ln for ln in err.splitlines() if ln.strip()]
+        assert code == 2 and len(lines) == 1, (code, err)
+        assert f'#1 and #2 are both kind = "{kind}"' in lines[0] or f'#2 and #3 are both kind = "{kind}"' in lines[0]
+        assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("material, said", [
+    ('name = "snow"\ntheta_c = 2.0', "theta_c = 2.0 (float); expected a finite number in (0, 1)"),
+    ('name = "snow"\nhardening = 1e5', "exp(2.5e+03) overflows; expected hardening x theta_c <= 40")])
+def test_a_snow_outside_its_model_is_one_line_naming_the_file(tmp_path, donut_small, capsys, material, said):
+    """``theta_c`` 2 clamped the singular values at -1 and was reported as 2.4e5 substeps a frame ("lower E"); a
+    hardening of 1e5 overflowed ``exp(hardening theta_c)`` in the step's wave speed (an engine bug, exit 4)."""
+    scene = tmp_path / "s.toml"
+    scene.write_text(scene_text(donut_small, n_frames=1, n_grid=16, material=material))
+    code = main(["simulate", str(scene), "-o", str(tmp_path / "out"), "-q"])
+    err = capsys.readouterr().err
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert code == 2 and len(lines) == 1 and str(scene) in lines[0] and said in lines[0], (code, err)
+
+
+def test_the_snow_check_catches_the_unbounded_stiffening_before(monkeypatch):
+    """With the bound taken off, the same snow reaches the wave speed's ``exp`` and overflows there."""
+    import gasp_core.seam.setup as setup
+    monkeypatch.setattr(setup, "MAX_STIFFENING", float("inf"))
+    m = Material("snow", hardening=1e5)
+    m.check()
+    with pytest.raises(OverflowError):
+        m.p_wave_speed
+
+
+def test_the_ground_check_catches_the_reader_before(tmp_path, donut_small, capsys, monkeypatch):
+    """With every [[boundary]] read as before (no count of grounds), the two-ground scene runs to its end (exit 0)
+    with the donut inside the upper ground: the silent wrong answer the check above refuses."""
+    from gasp_core.scene.tables import read_boundary
+    from gasp_core.scene.values import as_tables
+    monkeypatch.setattr(spec, "read_boundaries", lambda data, src: [
+        read_boundary(b, f"[[boundary]] #{i + 1}", src) for i, b in enumerate(as_tables(data.get("boundary", []),
+                                                                                       "boundary", src))])
+    scene = tmp_path / "g.toml"
+    scene.write_text(scene_text(donut_small, n_frames=1, n_grid=16, engine="warp_mpm").replace(
+        "[[object]]", '[[boundary]]\nkind = "ground"\nheight = 0.5\n[[object]]', 1))
+    assert main(["simulate", str(scene), "-o", str(tmp_path / "out"), "-q"]) == 0

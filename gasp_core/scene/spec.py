@@ -58,7 +58,7 @@ from gasp_core.scene.extras import read_extras
 from gasp_core.scene.mesh import MESH_KEYS, MeshSpec, read_mesh
 from gasp_core.scene.quality import DEFAULT_QUALITY, apply_quality, read_quality
 from gasp_core.scene.select import SelectSpec, read_rest_collider, read_select, read_static
-from gasp_core.scene.tables import DomainSpec, EngineSpec, read_boundary, read_domain, read_engine, read_material
+from gasp_core.scene.tables import DomainSpec, EngineSpec, read_boundaries, read_domain, read_engine, read_material
 from gasp_core.scene.values import (MAX_COORD, MAX_GRAVITY, MAX_SPEED, MAX_SPIN, SCALE_RANGE, UP_AXES, as_boolean,
                                     as_integer, as_number, as_string, as_table, as_tables, as_vec3, bad_value,
                                     check_keys, is_number, read_key, resolve_path)
@@ -378,8 +378,7 @@ def parse_scene(data: dict, src: Path, quality: str | None = None) -> Scene:
     base = src.parent
     engine = read_engine(data.get("engine", {}), src)
     domain = read_domain(data.get("domain", {}), src)
-    boundaries = [read_boundary(b, f"[[boundary]] #{i + 1}", src)
-                  for i, b in enumerate(as_tables(data.get("boundary", []), "boundary", src))]
+    boundaries = read_boundaries(data, src)
     obj_list = as_tables(data.get("object", []), "object", src)
     if not obj_list:
         raise SceneError(f"{src}: the scene has no [[object]]")

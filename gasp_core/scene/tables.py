@@ -11,7 +11,7 @@ from typing import Any
 
 from gasp_core.errors import SceneError
 from gasp_core.scene.values import (MAX_COORD, MAX_PADDING, N_GRID_RANGE, PPC_RANGE, as_integer, as_number, as_string,
-                                    as_table, as_vec3, bad_value, check_keys)
+                                    as_table, as_tables, as_vec3, bad_value, check_keys)
 from gasp_core.seam.schema import (BODY_MODELS, DEFAULT_MATERIAL, MATERIAL_KINDS, MAX_FRICTION, RIGID_KINDS, body_keys,
                                    in_range)
 from gasp_core.seam.setup import BOUNDARIES, Boundary, Material, MATERIALS
@@ -97,7 +97,12 @@ def read_material(value, where: str, src: Path) -> Material:
     if kw.get("tensile_strength", 0.0) >= 1e154:     # issue 68: 1e200 overflowed its snap-back limit (OverflowError)
         bad_value(src, f"{where}.tensile_strength", table["tensile_strength"], "a tensile strength whose snap-back "
                   "limit tensile_strength^2 h / (2 E) stays within float64 (below 1e154 Pa; concrete: about 3e6)")
-    return Material(**kw)
+    m = Material(**kw)
+    try:   # what the keys allow together (round 99: a snow's stiffening past exp's range)
+        m.check(where)
+    except SceneError as e:
+        raise SceneError(f"{src}: {e}") from None
+    return m
 
 
 def _with_substance(table: dict, name: str, where: str, src: Path) -> dict:
@@ -199,3 +204,19 @@ def read_boundary(b: dict, where: str, src: Path) -> Boundary:
             raise SceneError(f"{src}: {where} (fixed_region) 'hi' must exceed 'lo' on every axis, got "
                              f"lo={list(kw['lo'])} hi={list(kw['hi'])}; the box holds nothing")
     return Boundary(**kw)
+
+
+def read_boundaries(data: dict, src: Path) -> list[Boundary]:
+    """The scene's ``[[boundary]]`` tables (:func:`read_boundary` each), with at most one ``ground`` and one ``walls``
+    (:class:`SceneError` naming both tables otherwise; round 99): the engines hold the points above the highest ground
+    and inside one box of walls, so a lower ground or a second friction would be silently ignored, and the check that
+    no point starts below the ground read the lowest plane."""
+    boundaries = [read_boundary(b, f"[[boundary]] #{i + 1}", src)
+                  for i, b in enumerate(as_tables(data.get("boundary", []), "boundary", src))]
+    for kind, instead in (("ground", "a raised support (a step, a shelf) is a [[collider]]"),
+                          ("walls", "give one [[boundary]] kind = \"walls\" with its friction")):
+        at = [i + 1 for i, b in enumerate(boundaries) if b.kind == kind]
+        if len(at) > 1:
+            raise SceneError(f"{src}: [[boundary]] #{at[0]} and #{at[1]} are both kind = \"{kind}\"; a scene has "
+                             f"one at most; {instead}")
+    return boundaries

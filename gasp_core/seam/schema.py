@@ -98,7 +98,8 @@ MATERIAL_PARAMS: dict[str, Param] = {
                                   "friction_angle (used when grain_diameter > 0)"),
     "softening": Param(0.1, 0.0, doc="yield stress drop per unit accumulated plastic strain"),
     "hardening": Param(10.0, 0.0, lo_open=True, doc="hardening coefficient xi (Stomakhin et al. 2013)"),
-    "theta_c": Param(2.5e-2, 0.0, lo_open=True, doc="critical compression (Stomakhin et al. 2013)"),
+    "theta_c": Param(2.5e-2, 0.0, 1.0, lo_open=True, hi_open=True,
+                     doc="critical compression (Stomakhin et al. 2013): singular values clamped at 1 - theta_c"),
     "theta_s": Param(4.5e-3, 0.0, lo_open=True, doc="critical stretch (Stomakhin et al. 2013)"),
     "viscosity": Param(0.0, 0.0, unit="Pa s",
                        doc="Kelvin-Voigt shear viscosity eta, 0 = no physical damping (engine feature "

@@ -15,6 +15,7 @@ import numpy as np
 from gasp_core.errors import SceneError
 from gasp_core.seam.schema import (BODY_MODELS, DEFAULT_MATERIAL, MATERIAL_KINDS, MATERIAL_PARAMS, MAX_FRICTION,
                                     RIGID_KINDS, STIFF_BRITTLE_E, in_range)
+from gasp_core.seam.cells import crack_band, grid_spacing
 
 #: Material models an engine may offer (capability names; :data:`gasp_core.seam.schema.MATERIAL_KINDS`).
 MATERIALS = frozenset(MATERIAL_KINDS)
@@ -26,26 +27,9 @@ BOUNDARIES = frozenset({"ground", "walls", "fixed_region"})
 #: Outside it the engines' step arithmetic overflows (``(1 / dt)^2`` at 1e-300 s, ``frame_dt^2`` at 1e300 s) long
 #: before any physics is reached; within it ``max_substeps`` bounds the work.
 FRAME_DT_RANGE = (1.0e-9, 3600.0)
-
-
-def grid_spacing(domain_lo, domain_hi, n_grid: int) -> float:
-    """Grid spacing ``dx``, metres: the longest domain side divided by ``n_grid`` (the one formula)."""
-    return float(np.max(np.asarray(domain_hi, dtype=np.float64) - np.asarray(domain_lo, dtype=np.float64))) / n_grid
-
-
-def crack_band(dx: float, p_vol: np.ndarray, body_id: np.ndarray, n_bodies: int) -> np.ndarray:
-    """Crack band width ``h`` of each body, metres, shape (n_bodies,), float64: the grid cell ``dx`` for every body
-    with material points (0 for a body without any; ``p_vol`` and ``body_id``, shapes (n,), say which).
-
-    ``h`` is the width a crack localises in (Bazant & Oh 1983, Materiaux et Constructions 16). In MLS-MPM a crack's
-    velocity jump localises between two nodes: the points in that cell break through. Measured on the tension family
-    (round 31, both engines): the work to separate ``G_f`` +1 to +7 % at n_grid 24 and 48 where ``dx + s`` gave -31 %
-    at 48 (docs/fracture.md "The crack band"). Each free point's softening range is scaled by its weight on its cell
-    (``gasp_core.mpm.materials.band_weight``, round 33): the cell breaks through as one on any point lattice."""
-    h = np.zeros(n_bodies)
-    pv = np.asarray(p_vol, np.float64)
-    h[np.unique(np.asarray(body_id)[pv > 0])] = dx
-    return h
+#: The largest ``hardening * theta_c`` of a ``snow`` material: its stiffening ``exp(hardening theta_c)`` (Stomakhin et
+#: al. 2013; 1.28 at the defaults) is then at most 2.4e17, inside float32's products (``gasp_core.seam.limits``).
+MAX_STIFFENING = 40.0
 
 
 @dataclass(frozen=True)
@@ -147,6 +131,10 @@ class Material:
         for key, val, top in (("restitution", self.restitution, 1.0), ("friction", self.friction, MAX_FRICTION)):
             if val is not None and not in_range(val, 0.0, top):
                 raise SceneError(f"{where}.{key} = {val!r}; expected a finite number in [0, {top:g}]")
+        if self.name == "snow" and self.hardening * self.theta_c > MAX_STIFFENING:   # exp() past any precision
+            raise SceneError(f"{where}.hardening = {self.hardening:g} with theta_c = {self.theta_c:g}: the snow's "
+                             f"largest stiffening exp(hardening theta_c) = exp({self.hardening * self.theta_c:.3g}) "
+                             f"overflows; expected hardening x theta_c <= {MAX_STIFFENING:g}")
         if self.model == "rigid" and self.name not in RIGID_KINDS:
             raise SceneError(f"{where}.model = 'rigid' needs an elastic material ({', '.join(RIGID_KINDS)}); "
                              f"{self.name!r} flows or yields")
