@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import itertools
 import sys
 import time
 from pathlib import Path
@@ -36,14 +37,15 @@ def family() -> list[tuple[float, int, str]]:
     return out + [(r, n, s) for r, n in SAMPLED_AT for s in RF.SAMPLINGS if s != "fibonacci"]
 
 
-def row(engine: str, shape: str, radius: float, n_grid: int, sampling: str, mu: float) -> dict:
+def row(engine: str, shape: str, radius: float, n_grid: int, sampling: str, mu: float, seed: int = 0) -> dict:
     """One case on ``engine``: the body of ``shape`` (``roll_family88.body``, its axis across the slope) set on the
-    ramp of friction ``mu``, its figures, the closed form of its own inertia and the verdict (``roll_family88.problem``)."""
+    ramp of friction ``mu``, its figures, the closed form of its own inertia and the verdict (``roll_family88.problem``);
+    ``seed`` the ``scan`` sampling's draw (round 99)."""
     import test_ramp_collider as rc
     from gasp_core.seam.setup import Material
     from gasp_core.testing.helpers import make_setup
     n, s = rc.ramp_frame(rl.THETA)
-    x, vol, n_render = RF.body(shape, radius, n_grid * 24 // 32, sampling)
+    x, vol, n_render = RF.body(shape, radius, n_grid * 24 // 32, sampling, seed)
     k = RF.inertia_share(x, vol, radius)
     x = x - (vol[:, None] * x).sum(0) / vol.sum()
     x = rc.START + 0.15 * s + radius * n + x[:, :1] * s + x[:, 1:2] * np.array([0.0, 1.0, 0.0]) + x[:, 2:] * n
@@ -65,6 +67,8 @@ def main(argv=None) -> int:
     ap.add_argument("--engine", default="warp_mpm")
     ap.add_argument("--shapes", default="ball,cylinder", help="ball, cylinder or both (comma-separated)")
     ap.add_argument("--round-collider", type=int, default=1, help="gasp_core.mpm.round_ground.ROUND_COLLIDER")
+    ap.add_argument("--seeds", default=None, help="round 99: the scan sampling's draws (comma-separated); with it only "
+                    "the family's scan rows run, once a seed")
     ap.add_argument("--out", default=None, help="a new JSON file for the rows (refused if it exists)")
     a = ap.parse_args(argv)
     out = RF.new_out(ap, a.out)
@@ -73,9 +77,11 @@ def main(argv=None) -> int:
     rows = []
     for shape in a.shapes.split(","):
         for radius, n_grid, sampling in family():
-            for mu in RF.MUS:
-                rows.append(row(a.engine, shape, radius, n_grid, sampling, mu))
-                print(RF.report(rows[-1]), flush=True)
+            if a.seeds and sampling != "scan":
+                continue
+            for seed, mu in itertools.product([int(k) for k in a.seeds.split(",")] if a.seeds else [0], RF.MUS):
+                rows.append({**row(a.engine, shape, radius, n_grid, sampling, mu, seed), "seed": seed})
+                print(RF.report(rows[-1]) + (f" (seed {seed})" if a.seeds else ""), flush=True)
     RF.write_rows(out, rows)
     return 0
 
