@@ -113,3 +113,16 @@ def test_the_ground_check_catches_the_reader_before(tmp_path, donut_small, capsy
     scene.write_text(scene_text(donut_small, n_frames=1, n_grid=16, engine="warp_mpm").replace(
         "[[object]]", '[[boundary]]\nkind = "ground"\nheight = 0.5\n[[object]]', 1))
     assert main(["simulate", str(scene), "-o", str(tmp_path / "out"), "-q"]) == 0
+
+
+def test_a_brittle_substance_below_its_snap_back_names_the_file_and_object(tmp_path, donut_small, capsys):
+    """The table's porcelain with the user's own E of 1e5 Pa takes the crack band, whose snap-back limit its G_f of
+    20.6 J/m^2 is far below: the one line names the scene and the object (it named ``SimSetup.materials[0]``)."""
+    scene = tmp_path / "s.toml"
+    scene.write_text(scene_text(donut_small, n_frames=1, n_grid=16, engine="warp_mpm",
+                                material='name = "brittle"\nsubstance = "porcelain"\nE = 1e5'))
+    code = main(["simulate", str(scene), "-o", str(tmp_path / "out"), "-q"])
+    err = capsys.readouterr().err
+    lines = [ln for ln in err.splitlines() if ln.strip() and not ln.startswith("gasp: warning:")]
+    assert code == 2 and len(lines) == 1, (code, err)
+    assert f"{scene}: object 'donut_small': material.fracture_energy = 20.6" in lines[0] and "snap-back" in lines[0]

@@ -183,6 +183,8 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> tuple[SimSetup, 
     extras = scene_extras(scene, scenery, x, dx, lo, hi, cut_from(objects, x, body_id))
     made = iter([dataclasses.replace(o, surface=o.surface.with_fill(fr.fill_x), **a)   # the map bound to its fill
                  for o, fr, a in zip(objects, fills, assembled)])
+    for o in objects:   # the crack band's snap-back limit, named by file and object (SimSetup names an index)
+        o.spec.material.check_band(dx, f"{scene.path}: object '{o.name}': material")
     setup = SimSetup(
         **extras, x=x, v=v, p_vol=p_vol, body_id=body_id, C=C, passive=passive if passive.any() else None,
         faint=np.concatenate([faint_rows(o) for o in objects] + [np.zeros(len(f.fill_x), bool) for f in fills]),
