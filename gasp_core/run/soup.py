@@ -30,6 +30,7 @@ import numpy as np
 
 from gasp_core import __version__
 from gasp_core.errors import EngineError, SceneError, missing_module_message
+from gasp_core.gs.gaussians import MAX_MAGNITUDE
 from gasp_core.gs.io import write_gaussians
 from gasp_core.fsutil import atomic_json, output_folder
 from gasp_core.prepare.placed import PreparedObject
@@ -47,6 +48,10 @@ SOUP_FORMAT = "gasp-soup/1"
 MANIFEST = "soup.json"
 #: Mesh files :func:`import_motion` reads.
 MESH_SUFFIXES = (".obj", ".ply")
+#: A frame whose object has at least this share of its triangles degenerate (zero area; ``T^-1``'s ``degenerate``
+#: count) is refused: no tool's motion of the exported soup collapses every face, and the Gaussians written would be
+#: a file the readers refuse (all at one point) or a surface of needles (round 100).
+DEGENERATE_SHARE = 1.0
 
 
 def object_names(objects: list[PreparedObject]) -> list[str]:
@@ -180,6 +185,11 @@ def read_soup(path: str | Path, n_faces: int) -> np.ndarray:
     tri = np.asarray(mesh.vertices, dtype=np.float64)[faces]
     if not np.isfinite(tri).all():
         raise SceneError(f"{path}: non-finite vertex in face {int(np.flatnonzero(~np.isfinite(tri).all(axis=(1, 2)))[0])}")
+    big = np.abs(tri).max(axis=(1, 2)) > MAX_MAGNITUDE
+    if big.any():
+        i = int(np.flatnonzero(big)[0])
+        raise SceneError(f"{path}: face {i} has a vertex coordinate of {np.abs(tri[i]).max():g}; expected magnitudes "
+                         f"<= {MAX_MAGNITUDE:g} (float32 headroom)")
     return tri
 
 
@@ -255,7 +265,8 @@ def import_motion(scene: Scene, motion_dir: str | Path, outdir: str | Path,
     FileExistsError
         ``outdir`` exists and ``overwrite`` is false.
     SceneError
-        Missing or malformed frame files (wrong face count, unreadable, non-finite).
+        Missing or malformed frame files (wrong face count, unreadable, non-finite, coordinates past
+        ``MAX_MAGNITUDE``), or a frame whose object's triangles are all degenerate (:data:`DEGENERATE_SHARE`).
     """
     outdir = Path(outdir)
     objects = [prepare_object(spec) for spec in scene.objects]
@@ -288,6 +299,9 @@ def import_motion(scene: Scene, motion_dir: str | Path, outdir: str | Path,
             row = {"frame": f, "files": [str(p) for p in sources], "degenerate": 0, "clamped": 0}
             for k, (o, name, tri) in enumerate(zip(flat_objects, names, tris)):
                 g, prev[k], counts = rebuild(o, tri.reshape(-1, 3), prev[k])
+                if counts["degenerate"] >= DEGENERATE_SHARE * len(tri):
+                    raise SceneError(f"{', '.join(map(str, sources))}: all {len(tri):,} triangles of object '{name}' "
+                                     "are degenerate (zero area); not a motion of the exported soup")
                 write_gaussians(tmp / name / f"frame_{f:04d}.ply", g)
                 row["degenerate"] += counts["degenerate"]
                 row["clamped"] += counts["clamped"]

@@ -1,0 +1,105 @@
+"""Round 100's hostile inputs, on ``gasp import-motion`` (an animated triangle soup read back into Gaussians):
+
+- a motion frame whose vertices are at 1e30 m was refused by the Gaussians' own check, naming the scene's input PLY,
+  not the motion file that held the coordinate;
+- a motion frame whose triangles are all degenerate (every vertex at one point, as a tool that collapses a mesh
+  writes it) was imported with exit 0, and its frame was a file that ``gasp`` itself refuses to read ("all 2,852
+  Gaussians lie at one point").
+
+Both are now refused by ``gasp_core.run.soup`` naming the motion file. Each case takes about a second."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from gasp_testing import needs_package, scene_text
+
+trimesh = needs_package("trimesh")
+
+import gasp_core.run.soup as soup  # noqa: E402
+from gasp_core.cli.main import main  # noqa: E402
+from gasp_core.errors import SceneError  # noqa: E402
+from gasp_core.gs.io import read_gaussians  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def soup_scene(tmp_path_factory, donut_small):
+    """The small donut's scene and its exported rest soup's triangles, (n, 3, 3) m."""
+    d = tmp_path_factory.mktemp("hostile_100")
+    scene = d / "s.toml"
+    scene.write_text(scene_text(donut_small, n_frames=1, n_grid=16))
+    assert main(["export-soup", str(scene), "-o", str(d / "soup")]) == 0
+    mesh = trimesh.load(d / "soup" / "donut_small.obj", process=False, force="mesh", maintain_order=True)
+    return scene, np.asarray(mesh.vertices)[np.asarray(mesh.faces)]
+
+
+def motion(tmp_path, tri: np.ndarray):
+    """A motion folder of one frame holding the triangles ``tri`` (n, 3, 3), as an OBJ."""
+    folder = tmp_path / "motion"
+    folder.mkdir(parents=True)
+    lines = [f"v {float(a)!r} {float(b)!r} {float(c)!r}" for a, b, c in tri.reshape(-1, 3)]
+    lines += [f"f {3 * i + 1} {3 * i + 2} {3 * i + 3}" for i in range(len(tri))]
+    (folder / "frame_0000.obj").write_text("\n".join(lines) + "\n")
+    return folder
+
+
+def run(capsys, scene, folder, out):
+    code = main(["import-motion", str(scene), str(folder), "-o", str(out)])
+    return code, capsys.readouterr().err
+
+
+def test_the_rest_soup_itself_imports(tmp_path, soup_scene, capsys):
+    """The cases below differ from this one by their tampering alone."""
+    scene, tri = soup_scene
+    code, err = run(capsys, scene, motion(tmp_path, tri), tmp_path / "out")
+    assert code == 0, err
+    assert read_gaussians(tmp_path / "out" / "donut_small" / "frame_0000.ply").n == len(tri)
+
+
+@pytest.mark.parametrize("value", [1e30, -1e19])
+def test_a_coordinate_past_float32_headroom_names_the_motion_file(tmp_path, soup_scene, capsys, value):
+    scene, tri = soup_scene
+    tri = tri.copy()
+    tri[7, 0, 2] = value
+    folder = motion(tmp_path, tri)
+    code, err = run(capsys, scene, folder, tmp_path / "out")
+    assert code == 2 and "Traceback" not in err, err
+    assert f"{folder / 'frame_0000.obj'}: face 7 has a vertex coordinate of {abs(value):g}" in err
+    assert "<= 1e+18" in err and not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("collapse", ["one point", "each face to its first vertex"])
+def test_a_frame_of_only_degenerate_triangles_is_refused(tmp_path, soup_scene, capsys, collapse):
+    scene, tri = soup_scene
+    tri = np.zeros_like(tri) if collapse == "one point" else np.repeat(tri[:, :1], 3, axis=1)
+    folder = motion(tmp_path, tri)
+    code, err = run(capsys, scene, folder, tmp_path / "out")
+    assert code == 2 and "Traceback" not in err, err
+    assert f"{folder / 'frame_0000.obj'}: all {len(tri):,} triangles of object 'donut_small' are degenerate" in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_some_degenerate_triangles_still_import(tmp_path, soup_scene, capsys):
+    """A frame with a few collapsed faces is a motion (T^-1 keeps their previous rotation and counts them)."""
+    scene, tri = soup_scene
+    tri = tri.copy()
+    tri[:5] = tri[:5, :1]
+    code, err = run(capsys, scene, motion(tmp_path, tri), tmp_path / "out")
+    assert code == 0, err
+    g = read_gaussians(tmp_path / "out" / "donut_small" / "frame_0000.ply")
+    assert np.isfinite(g.means).all() and np.isfinite(g.rotations).all()
+
+
+def test_the_checks_catch_the_rules_before(tmp_path, soup_scene, capsys, monkeypatch):
+    """Without the two checks the huge coordinate is refused naming the scene's input file, and the collapsed frame
+    is written as a file that gasp's reader refuses: the failures the checks above exist for."""
+    scene, tri = soup_scene
+    monkeypatch.setattr(soup, "MAX_MAGNITUDE", np.inf)
+    monkeypatch.setattr(soup, "DEGENERATE_SHARE", 2.0)
+    big = tri.copy()
+    big[7, 0, 2] = 1e30
+    code, err = run(capsys, scene, motion(tmp_path / "a", big), tmp_path / "a_out")
+    assert code == 2 and "donut_small.ply: field 'means'" in err and "frame_0000.obj" not in err, err
+    code, err = run(capsys, scene, motion(tmp_path / "b", np.zeros_like(tri)), tmp_path / "b_out")
+    assert code == 0, err
+    with pytest.raises(SceneError, match="lie at one point"):
+        read_gaussians(tmp_path / "b_out" / "donut_small" / "frame_0000.ply")
