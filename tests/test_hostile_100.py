@@ -6,8 +6,14 @@
   writes it) was imported with exit 0, and its frame was a file that ``gasp`` itself refuses to read ("all 2,852
   Gaussians lie at one point").
 
-Both are now refused by ``gasp_core.run.soup`` naming the motion file. Each case takes about a second."""
+Both are now refused by ``gasp_core.run.soup`` naming the motion file. And on ``gasp render --camera-index`` (a
+capture's graphdeco ``cameras.json``): a camera with ``fy`` or ``height`` 0 ended as an exit-1 ZeroDivisionError
+("a bug in gasp"); a zero rotation was reported as "position and look_at are the same point"; and no camera error
+named the file or the camera. ``gasp_core.render.paths.graphdeco_camera`` now checks them, naming both. Each case
+takes about a second."""
 from __future__ import annotations
+
+import json
 
 import numpy as np
 import pytest
@@ -103,3 +109,49 @@ def test_the_checks_catch_the_rules_before(tmp_path, soup_scene, capsys, monkeyp
     assert code == 0, err
     with pytest.raises(SceneError, match="lie at one point"):
         read_gaussians(tmp_path / "b_out" / "donut_small" / "frame_0000.ply")
+
+
+# ------------------------------------------------------------------ a capture's cameras.json (gasp render --camera-index)
+
+def camera_entry(**change) -> dict:
+    """One graphdeco cameras.json entry (camera_to_JSON's keys), 64 x 48 px, 1 m above the origin, changed by
+    ``change``."""
+    c = {"id": 0, "img_name": "a", "width": 64, "height": 48, "position": [0.0, 0.0, 1.0],
+         "rotation": np.eye(3).tolist(), "fx": 50.0, "fy": 50.0}
+    return {**c, **change}
+
+
+CAMERA_CASES = {   # was: an exit-1 ZeroDivisionError (fy 0, height 0); a camera of no file or index named (the rest)
+    "fy 0": ({"fy": 0.0}, "expected a focal length fy > 0"),
+    "fy negative": ({"fy": -50.0}, "expected a focal length fy > 0"),
+    "fy nan": ({"fy": float("nan")}, "expected a focal length fy > 0"),
+    "height 0": ({"height": 0}, "a width and height of 1 px or more"),
+    "width 0": ({"width": 0}, "a width and height of 1 px or more"),
+    # a zero rotation was reported as "position and look_at are the same point"
+    "rotation zero": ({"rotation": np.zeros((3, 3)).tolist()}, "rotation: expected a proper rotation"),
+    "rotation mirrored": ({"rotation": np.diag([1.0, 1.0, -1.0]).tolist()}, "rotation: expected a proper rotation"),
+    "position nan": ({"position": [float("nan"), 0.0, 1.0]}, "position: expected finite"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(CAMERA_CASES))
+def test_a_camera_that_makes_no_picture_is_refused_naming_the_file_and_the_camera(tmp_path, case):
+    from gasp_core.render.paths import graphdeco_camera
+    change, expected = CAMERA_CASES[case]
+    cams = tmp_path / "cameras.json"
+    cams.write_text(json.dumps([camera_entry(), camera_entry(id=1, **change)]))
+    assert graphdeco_camera(cams, 0).height == 48   # the first camera is a camera
+    with pytest.raises(SceneError) as e:
+        graphdeco_camera(cams, 1)
+    assert str(e.value).startswith(f"{cams}: camera 1: ") and expected in str(e.value), str(e.value)
+
+
+def test_the_camera_checks_catch_the_rules_before():
+    """What the checks above stand in front of: a focal length of 0 divides by zero in the pose (an exit-1 bug from
+    gasp render), and the rotation is now tested before the look-at point that a zero rotation puts on the
+    camera."""
+    from gasp_core.gs.camera import Camera
+    with pytest.raises(ZeroDivisionError):
+        Camera.from_pose(np.zeros(3), np.eye(3), 0.0, 64, 48)
+    with pytest.raises(SceneError, match="proper rotation"):
+        Camera.from_pose(np.zeros(3), np.zeros((3, 3)), 50.0, 64, 48)

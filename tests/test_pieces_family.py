@@ -129,7 +129,9 @@ def test_the_finer_grid_check_catches_damage_alone_and_a_tracker_that_forgets(na
                                        "short at 4 and 10 m/s; the 7 m/s pieces are 1.2-1.5 cells across, not "
                                        "converged; round 99: at frame 30 they are 0 at 7 m/s too (1, 1, 1, 0, 0), "
                                        "and neither a rotating crack nor Grady's cells as a sub-grid closure meet it "
-                                       "(docs/fracture.md 'Round 99')")
+                                       "(docs/fracture.md 'Round 99'); round 100: DFG alone does not either, and Grady's "
+                                       "cells parted by DFG meet it on n_grid 48 only, in a study solver "
+                                       "(docs/fracture.md 'Round 100')")
 @pytest.mark.parametrize("name", _names())
 def test_the_pieces_of_5_percent_never_decrease_with_speed(name):
     for n_grid in GRIDS:

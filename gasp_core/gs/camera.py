@@ -56,13 +56,13 @@ class Camera:
         for what, v in (("position", self.position), ("look_at", self.look_at)):
             if not np.isfinite(v).all():
                 raise SceneError(f"camera {what}: expected finite x, y, z (metres), got {v.tolist()}")
-        if np.linalg.norm(self.look_at - self.position) < 1e-12:
-            raise SceneError(f"camera position and look_at are the same point {self.position.tolist()}")
-        if self.rotation is not None:
+        if self.rotation is not None:   # before the look_at test: a zero rotation's look_at is the position
             self.rotation = np.asarray(self.rotation, dtype=np.float64).reshape(3, 3)
             if not np.allclose(self.rotation @ self.rotation.T, np.eye(3), atol=1e-4) \
                     or np.linalg.det(self.rotation) < 0:
                 raise SceneError("camera rotation: expected a proper rotation matrix (orthonormal, det +1)")
+        if np.linalg.norm(self.look_at - self.position) < 1e-12:
+            raise SceneError(f"camera position and look_at are the same point {self.position.tolist()}")
 
     @classmethod
     def from_pose(cls, position, rotation, focal_px: float, width: int, height: int, near: float = 1e-3) -> "Camera":

@@ -49,8 +49,10 @@ def graphdeco_camera(path, index: int, placement: dict | None = None, width: int
     Raises
     ------
     SceneError
-        Missing or unreadable file, an index outside the list (the message gives its length), or a
-        camera entry without ``position`` / ``rotation`` / ``fy`` / ``height``.
+        Missing or unreadable file, an index outside the list (the message gives its length), a
+        camera entry without ``position`` / ``rotation`` / ``fy`` / ``height``, or one whose values make no camera
+        (``fy`` not above 0, an empty image, a position that is not finite, a rotation that is not proper), naming
+        the file and the camera.
     """
     path = Path(path)
     try:
@@ -69,11 +71,17 @@ def graphdeco_camera(path, index: int, placement: dict | None = None, width: int
     except (KeyError, TypeError, ValueError) as e:
         raise SceneError(f"{path}: camera {index} lacks position, rotation (3x3), fy, width or height "
                          f"({e!r})") from None
+    if not (np.isfinite(fy) and fy > 0 and w0 >= 1 and h0 >= 1):
+        raise SceneError(f"{path}: camera {index}: expected a focal length fy > 0 and a width and height of 1 px or "
+                         f"more, got fy {fy:g}, {w0}x{h0}")
     pl = placement or {"R": np.eye(3), "scale": 1.0, "t": np.zeros(3)}
     R, scale, t = np.asarray(pl["R"], float), float(pl["scale"]), np.asarray(pl["t"], float)
     width, height = width or w0, height or h0
-    return Camera.from_pose(scale * R @ pos + t, (R @ c2w).T, fy * height / h0, width, height,
-                            near=1e-3 * scale)
+    try:
+        return Camera.from_pose(scale * R @ pos + t, (R @ c2w).T, fy * height / h0, width, height,
+                                near=1e-3 * scale)
+    except SceneError as e:   # the camera's own values: name the file and the camera
+        raise SceneError(f"{path}: camera {index}: {str(e).removeprefix('camera ')}") from None
 
 
 def orbit_path(degrees: float, elevation_deg: float = 25.0, azimuth_deg: float = -60.0):
