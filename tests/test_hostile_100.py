@@ -9,8 +9,10 @@
 Both are now refused by ``gasp_core.run.soup`` naming the motion file. And on ``gasp render --camera-index`` (a
 capture's graphdeco ``cameras.json``): a camera with ``fy`` or ``height`` 0 ended as an exit-1 ZeroDivisionError
 ("a bug in gasp"); a zero rotation was reported as "position and look_at are the same point"; and no camera error
-named the file or the camera. ``gasp_core.render.paths.graphdeco_camera`` now checks them, naming both. Each case
-takes about a second."""
+named the file or the camera. ``gasp_core.render.paths.graphdeco_camera`` now checks them, naming both. And on
+``settle = true``: a scene with gravity and nothing to rest on settled out of the domain and its record said
+``settled: true`` (the points out of the grid had stopped moving); it is refused, and a body that leaves the domain
+while settling is counted (``settle.left_domain``, ``settled`` false). Each case takes about a second."""
 from __future__ import annotations
 
 import json
@@ -155,3 +157,57 @@ def test_the_camera_checks_catch_the_rules_before():
         Camera.from_pose(np.zeros(3), np.eye(3), 0.0, 64, 48)
     with pytest.raises(SceneError, match="proper rotation"):
         Camera.from_pose(np.zeros(3), np.zeros((3, 3)), 50.0, 64, 48)
+
+
+# ------------------------------------------------------------------------------------ settle = true with no support
+
+def settle_scene(tmp_path, donut_small, ground: bool, gravity: str) -> object:
+    scene = tmp_path / "settle.toml"
+    scene.write_text(scene_text(donut_small, n_frames=1, n_grid=16, engine="warp_mpm", ground=ground,
+                                extra_top=f"settle = true\ngravity = {gravity}\n"))
+    return scene
+
+
+def test_settle_with_nothing_to_rest_on_is_refused(tmp_path, donut_small, capsys):
+    """Was: the body fell out of the domain while settling and run.json said ``settled: true`` (its points, out
+    of the grid, had stopped moving)."""
+    needs_package("gasp_warp_mpm")
+    code, err = run_simulate(capsys, settle_scene(tmp_path, donut_small, False, "[0.0, 0.0, -9.81]"), tmp_path / "o")
+    lines = [ln for ln in err.splitlines() if ln.startswith("gasp: error")]
+    assert code == 2 and len(lines) == 1 and "Traceback" not in err, err
+    assert "settle = true" in lines[0] and "nothing to rest on" in lines[0] and not (tmp_path / "o").exists()
+
+
+def test_settle_without_gravity_needs_no_support(tmp_path, donut_small, capsys):
+    needs_package("gasp_warp_mpm")
+    code, err = run_simulate(capsys, settle_scene(tmp_path, donut_small, False, "[0.0, 0.0, 0.0]"), tmp_path / "o")
+    assert code == 0, err
+    assert json.loads((tmp_path / "o" / "run.json").read_text())["settle"]["settled"] is True
+
+
+def test_a_body_that_leaves_the_domain_while_settling_has_not_settled(tmp_path, donut_small, capsys):
+    """A ground, but gravity three times as strong across it as down: the donut slides off the ground's edge and out
+    of the grid while settling. It is counted and the record says it did not settle."""
+    needs_package("gasp_warp_mpm")
+    code, err = run_simulate(capsys, settle_scene(tmp_path, donut_small, True, "[30.0, 0.0, -9.81]"), tmp_path / "o")
+    assert code == 0, err
+    record = json.loads((tmp_path / "o" / "run.json").read_text())["settle"]
+    assert record["left_domain"] > 0 and record["settled"] is False, record
+    assert f"settle: {record['left_domain']} point(s) left the domain while settling" in err
+
+
+def test_the_settle_checks_catch_the_rules_before(tmp_path, donut_small, capsys, monkeypatch):
+    """Without the support check the unsupported donut settles out of the domain and its record says ``settled``;
+    the left-domain count is what now says otherwise."""
+    needs_package("gasp_warp_mpm")
+    import gasp_core.seam.settle as settle
+    monkeypatch.setattr(settle, "check_settle", lambda info, setup: None)
+    code, err = run_simulate(capsys, settle_scene(tmp_path, donut_small, False, "[0.0, 0.0, -9.81]"), tmp_path / "o")
+    assert code == 0, err
+    record = json.loads((tmp_path / "o" / "run.json").read_text())["settle"]
+    assert record["residual_cells"] == 0.0 and record["left_domain"] > 0 and record["settled"] is False, record
+
+
+def run_simulate(capsys, scene, out):
+    code = main(["simulate", str(scene), "-o", str(out), "-q"])
+    return code, capsys.readouterr().err

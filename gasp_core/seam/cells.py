@@ -1,6 +1,7 @@
 """The grid's cell and the crack band a brittle body's cracks localise in (what :class:`~gasp_core.seam.setup.SimSetup`
 derives from the domain and ``n_grid``; both are also read as ``gasp_core.seam.setup.grid_spacing`` and
-``gasp_core.seam.setup.crack_band``)."""
+``gasp_core.seam.setup.crack_band``), and which points have left the grid (:func:`left_grid`, also read as
+``gasp_core.seam.runner.left_grid``)."""
 from __future__ import annotations
 
 import numpy as np
@@ -24,3 +25,12 @@ def crack_band(dx: float, p_vol: np.ndarray, body_id: np.ndarray, n_bodies: int)
     pv = np.asarray(p_vol, np.float64)
     h[np.unique(np.asarray(body_id)[pv > 0])] = dx
     return h
+
+
+def left_grid(x: np.ndarray, setup) -> np.ndarray:
+    """Which points' quadratic B-spline stencil (3 nodes an axis from ``floor((x - lo)/dx - 0.5)``) no longer lies
+    within the ``n_grid`` nodes of the grid of ``setup`` (a :class:`~gasp_core.seam.setup.SimSetup`): bool, shape
+    (n,). The rule of the grid engines' transfers (MLS-MPM's ``base``, Hu et al. 2018); such a point drops out of an
+    engine with the feature ``left_domain``."""
+    base = np.floor((np.asarray(x, np.float64) - setup.domain_lo) / setup.dx - 0.5)
+    return ((base < 0) | (base > setup.n_grid - 3)).any(axis=1)

@@ -16,6 +16,7 @@ import numpy as np
 
 from gasp_core.errors import EngineDivergence, EngineError
 from gasp_core.seam.build import build_engine
+from gasp_core.seam.cells import left_grid
 from gasp_core.seam.engine import call_engine, EngineInfo, PointEngine, StatefulEngine
 from gasp_core.seam.setup import SimSetup
 from gasp_core.seam.body_sleep import BodySleep
@@ -118,14 +119,6 @@ def check_state(x: np.ndarray, setup: SimSetup, frame: int, margin: float | None
         raise EngineDivergence(
             f"{len(bad)} point(s) left the domain [{setup.domain_lo.tolist()}, {setup.domain_hi.tolist()}] "
             f"(first index {bad[0]} at {x[bad[0]].tolist()})", frame, CAUSE_LEFT_DOMAIN)
-
-
-def left_grid(x: np.ndarray, setup: SimSetup) -> np.ndarray:
-    """Which points' quadratic B-spline stencil (3 nodes an axis from ``floor((x - lo)/dx - 0.5)``) no longer lies
-    within the ``n_grid`` nodes of the grid: bool, shape (n,). The rule of the grid engines' transfers (MLS-MPM's
-    ``base``, Hu et al. 2018); such a point drops out of an engine with the feature ``left_domain``."""
-    base = np.floor((np.asarray(x, np.float64) - setup.domain_lo) / setup.dx - 0.5)
-    return ((base < 0) | (base > setup.n_grid - 3)).any(axis=1)
 
 
 class EngineRun:

@@ -96,8 +96,9 @@ def settle_substeps(info, setup) -> int | None:
 
 
 def check_settle(info, setup) -> None:
-    """Raise :class:`SceneError` where ``settle = true`` cannot be done: the engine lacks the feature ``state``, or a
-    point has an initial velocity."""
+    """Raise :class:`SceneError` where ``settle = true`` cannot be done: the engine lacks the feature ``state``, a
+    point has an initial velocity, or there is gravity and nothing to rest on (no ground, walls, ``fixed_region`` or
+    collider: the bodies would fall out of the domain while settling, round 100)."""
     if "state" not in info.capabilities.features:
         from gasp_core.seam.plugins import engines
         able = sorted(n for n, i in engines().items() if "state" in i.capabilities.features)
@@ -109,6 +110,10 @@ def check_settle(info, setup) -> None:
         bodies = sorted(set(np.asarray(setup.body_id)[np.abs(v).max(axis=1) > 0.0].tolist()))
         raise SceneError(f"settle = true is for bodies at rest, but bodies {bodies} start with a velocity "
                          f"(|v| up to {np.abs(v).max():.3g} m/s); leave settle out or give them no velocity")
+    if np.abs(np.asarray(setup.gravity, float)).max() > 0.0 and not setup.colliders and not setup.boundaries:
+        raise SceneError("settle = true starts the bodies at rest in their weight, but the scene has gravity and "
+                         "nothing to rest on (no [[boundary]] ground, walls or fixed_region, no [[collider]]): they "
+                         "would fall out of the domain while settling; add a support or leave settle out")
 
 
 def _still(setup, g_scale: float, frame_dt: float):
@@ -145,7 +150,8 @@ def settled_state(info, setup) -> tuple[dict, dict]:
     record : dict
         ``frames`` (settle frames run), ``frame_s`` (s), ``period_s`` (:func:`compression_period`), ``moved_mm`` (the
         largest point displacement from ``setup.x``), ``residual_cells`` (the last frame's largest point motion, in
-        cells), ``settled`` (under :data:`RESIDUAL_CELLS`).
+        cells), ``left_domain`` (points outside the domain after it), ``settled`` (under :data:`RESIDUAL_CELLS`, and
+        none left).
 
     Raises
     ------
@@ -154,6 +160,7 @@ def settled_state(info, setup) -> tuple[dict, dict]:
     """
     from gasp_core.seam.build import build_engine
     from gasp_core.seam.engine import call_engine
+    from gasp_core.seam.cells import left_grid
     check_settle(info, setup)
     n_frames = STAGES * STAGE_FRAMES + HOLD_FRAMES
     T, tau = compression_period(setup), settle_frame_s(setup)
@@ -180,10 +187,16 @@ def settled_state(info, setup) -> tuple[dict, dict]:
         finally:
             e.close()
     residual = moved / setup.dx
+    # a point that left the domain stays where it left (residual 0 there): it did not settle (round 100)
+    left = int(left_grid(x, setup).sum())
     record = {"frames": n_frames, "frame_s": tau, "period_s": T,
               "moved_mm": 1000.0 * float(np.abs(x - np.asarray(setup.x, float)).max()),
-              "residual_cells": residual, "settled": bool(residual < RESIDUAL_CELLS)}
-    if not record["settled"]:
+              "residual_cells": residual, "left_domain": left, "settled": bool(residual < RESIDUAL_CELLS and not left)}
+    if left:
+        warnings.warn(f"settle: {left} point(s) left the domain while settling: a body fell or slid off what holds "
+                      f"it, so the scene has no state at rest there; the run starts without them", UserWarning,
+                      stacklevel=2)
+    if not record["settled"] and not left:
         warnings.warn(f"settle: the scene was not at rest after {n_frames} settle frames ({n_frames * tau:.3g} s): "
                       f"a point still moved {residual:.3g} cells in the last one (over {RESIDUAL_CELLS:g}); a body "
                       f"slides (tan theta over its friction), falls or flows. The run starts where the settle left "
