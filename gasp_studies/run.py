@@ -125,9 +125,11 @@ def execute(spec: RunSpec, capture: bool = True) -> RunOutput:
     """Run ``spec`` in this process (the task a Dask worker runs) and return its :class:`RunOutput`.
 
     Errors are caught and reported in the record (``status`` ``diverged`` or ``error``), never
-    raised: one engine's failure does not stop a study.
+    raised: one engine's failure does not stop a study. A run whose work is beyond ``gasp simulate``'s bound
+    (:func:`gasp_core.run.budget.check_before`, without ``--yes``) stops after its first frame as an ``error``.
     """
     from gasp_core.errors import EngineDivergence
+    from gasp_core.run.budget import check_before
     from gasp_core.run.frames import iter_frames
     from gasp_core.prepare.scene import prepare_scene
     from gasp_core.seam.runner import RunStats
@@ -165,6 +167,9 @@ def execute(spec: RunSpec, capture: bool = True) -> RunOutput:
         try:
             kept_cpu = kept_wall = 0.0  # keeping keyframes is the study's work: left out of the timings
             for frame, gs, _row in iter_frames(prep, spec.n_frames, stats):
+                if frame == 1:   # the engine is built: gasp simulate's work bound (round 100: 1e10 frames ran on)
+                    check_before(stats.engine or {}, rec["simulated_points"], spec.n_frames, spec.n_frames - 1, False,
+                                 override="")
                 cpu_marks.append(time.process_time() - kept_cpu)
                 means.append(np.concatenate([g.means for g in gs]).astype(np.float32))
                 if frame in spec.keep_frames:

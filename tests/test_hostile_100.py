@@ -12,7 +12,10 @@ capture's graphdeco ``cameras.json``): a camera with ``fy`` or ``height`` 0 ende
 named the file or the camera. ``gasp_core.render.paths.graphdeco_camera`` now checks them, naming both. And on
 ``settle = true``: a scene with gravity and nothing to rest on settled out of the domain and its record said
 ``settled: true`` (the points out of the grid had stopped moving); it is refused, and a body that leaves the domain
-while settling is counted (``settle.left_domain``, ``settled`` false). Each case takes about a second."""
+while settling is counted (``settle.left_domain``, ``settled`` false). And on ``gasp compare`` and ``gasp bench``:
+``--timeout 0`` was read as "not given" (the default hour), and ``--frames 10000000000`` ran on until each run's hour
+was up; the first is refused and the second stops after its first frame at ``gasp simulate``'s work bound. Each case
+takes about a second."""
 from __future__ import annotations
 
 import json
@@ -211,3 +214,35 @@ def test_the_settle_checks_catch_the_rules_before(tmp_path, donut_small, capsys,
 def run_simulate(capsys, scene, out):
     code = main(["simulate", str(scene), "-o", str(out), "-q"])
     return code, capsys.readouterr().err
+
+
+# ---------------------------------------------------------------- gasp compare / bench: --timeout 0, 1e10 frames
+
+def test_a_timeout_of_0_is_refused_not_taken_as_the_default(tmp_path, donut_small, capsys):
+    """Was: ``--timeout 0`` read as "not given", so each run had the default hour."""
+    needs_package("distributed")
+    scene = tmp_path / "s.toml"
+    scene.write_text(scene_text(donut_small, n_frames=1, n_grid=16, engine="warp_mpm"))
+    for command in ("compare", "bench"):
+        code = main([command, str(scene), "-o", str(tmp_path / command), "--timeout", "0"])
+        err = capsys.readouterr().err
+        assert code == 2 and "timeout_s: expected a positive number of seconds, got 0.0" in err, (command, err)
+        assert not (tmp_path / command).exists()
+
+
+@pytest.mark.parametrize("n_frames", [3, 10**10])
+def test_a_study_run_past_the_work_bound_stops_after_its_first_frame(tmp_path, donut_small, n_frames):
+    """Was: ``gasp compare --frames 10000000000`` ran on until each run's hour was up (keeping every frame's means).
+    Both sides: a run of 3 frames is not stopped."""
+    needs_package("distributed")
+    needs_package("gasp_warp_mpm")
+    from gasp_core.scene.spec import load_scene
+    from gasp_studies.run import RunSpec, execute
+    scene = tmp_path / "s.toml"
+    scene.write_text(scene_text(donut_small, n_frames=1, n_grid=16, engine="warp_mpm"))
+    rec = execute(RunSpec(load_scene(scene), "warp_mpm", {}, n_frames, "w"), capture=False).record
+    if n_frames == 3:
+        assert rec["status"] == "ok" and rec["frames_saved"] == 4, rec
+    else:
+        assert rec["status"] == "error" and rec["frames_saved"] == 1, rec
+        assert "beyond the bound of 24 h" in rec["message"] and "--yes" not in rec["message"]

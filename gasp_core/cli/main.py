@@ -99,7 +99,7 @@ def _studies(module: str):
 
 
 def _cmd_compare(args) -> int:
-    kw = {"timeout_s": args.timeout} if args.timeout else {}
+    kw = {} if args.timeout is None else {"timeout_s": args.timeout}
     _studies("compare").compare_scene(
         args.scene, [e.strip() for e in args.engines.split(",") if e.strip()] if args.engines else None,
         args.output, overwrite=args.overwrite, n_frames=args.frames, max_gaussians=args.max_gaussians,
@@ -109,7 +109,7 @@ def _cmd_compare(args) -> int:
 
 def _cmd_bench(args) -> int:
     bench = _studies("bench")
-    kw = {"timeout_s": args.timeout} if args.timeout else {}
+    kw = {} if args.timeout is None else {"timeout_s": args.timeout}
     bench.bench_scene(args.scene, args.output, engines=args.engines.split(",") if args.engines else None,
                       overwrite=args.overwrite, n_frames=args.frames, quick=args.quick,
                       reference_n_grid=args.reference_n_grid or None,

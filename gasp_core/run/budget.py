@@ -108,8 +108,11 @@ def check(engine_stats: dict, n_points: int, n_frames: int, frames_left: int, fr
     return f"this run asks for {text}" if seconds > NOTE_S else ""
 
 
-def check_before(engine_stats: dict, n_points: int, n_frames: int, frames_left: int, yes: bool) -> str:
+def check_before(engine_stats: dict, n_points: int, n_frames: int, frames_left: int, yes: bool,
+                 override: str = "pass --yes to run it anyway, or ") -> str:
     """The work in words when it exceeds :data:`NOTE_WORK`, else ``""``: called once the engine is built.
+    ``override``: how the caller's user runs past the bound, the start of the error's advice (``""`` where there is
+    no way: ``gasp compare`` and ``gasp bench``).
 
     Raises
     ------
@@ -121,8 +124,7 @@ def check_before(engine_stats: dict, n_points: int, n_frames: int, frames_left: 
     text = f"{work:.3g} point-substeps ({substeps:,} substeps/frame x {n_points:,} points x {frames_left:,} frames)"
     if work / FAST_RATE > MAX_S and not yes:
         raise GaspError(f"this run asks for {text}, beyond the bound of {duration_text(MAX_S)} even at "
-                        f"{FAST_RATE:.0e} point-substeps/s; pass --yes to run it anyway, or lower n_grid, particles_per_cell or "
-                        f"the frames")
+                        f"{FAST_RATE:.0e} point-substeps/s; {override}lower n_grid, particles_per_cell or the frames")
     if work > NOTE_WORK:
         return (f"this run asks for {text}: minutes to hours on a CPU (about 1e6 to 1e8 point-substeps/s); its "
                 f"time is estimated after frame 2; n_grid and particles_per_cell set the points and the substeps")
