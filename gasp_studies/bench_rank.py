@@ -10,6 +10,7 @@ world-frame splats of every frame, so a capture's ``cameras.json`` and its place
 """
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import numpy as np

@@ -246,3 +246,17 @@ def test_a_study_run_past_the_work_bound_stops_after_its_first_frame(tmp_path, d
     else:
         assert rec["status"] == "error" and rec["frames_saved"] == 1, rec
         assert "beyond the bound of 24 h" in rec["message"] and "--yes" not in rec["message"]
+
+
+def test_gasp_benchs_strips_line_is_printed(tmp_path, donut_small, capsys):
+    """Found beside the sweep: with progress on (as ``gasp bench`` runs) the strips' line raised ``NameError: name
+    'sys' is not defined`` after every run of the sweep, so ``gasp bench`` ended in exit 1 ("a bug in gasp") and
+    wrote no report. The default tier's check; the bench family's test (``test_studies.py``, progress on) runs it
+    end to end."""
+    needs_package("distributed")
+    from gasp_core.scene.spec import load_scene
+    from gasp_studies.bench_rank import bench_strips
+    scene = tmp_path / "s.toml"
+    scene.write_text(scene_text(donut_small, n_frames=1, n_grid=16))
+    lines = bench_strips(tmp_path, load_scene(scene), (0, 1), [], [], [], True)
+    assert lines[0] == "## Frames" and "gasp bench: strips: skipped" in capsys.readouterr().err
