@@ -15,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
+from gasp_core.scene.spec import Scene
+
 from .accuracy import Track
 from .compare import ground_height
 from .measure import cheapest_ranked
