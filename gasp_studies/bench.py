@@ -30,6 +30,7 @@ from typing import Any
 from gasp_core.fsutil import output_folder
 from gasp_core.errors import EngineError, SceneError
 from gasp_core.scene.spec import Scene
+from gasp_core.scene.values import N_GRID_RANGE
 
 from . import report
 from .compare import open_study, check_engine_names, engine_options, ground_height, progress_line, save_run, select_engines, subsample_scene
@@ -187,7 +188,7 @@ def bench_scene(scene_path: str | Path, output: str | Path, engines: list[str] |
     settings : dict, optional
         ``{engine: [reference, setting, ...]}`` replacing that engine's own sweep.
     reference_n_grid : int, optional
-        A finer ``n_grid`` for the reference run alone (where the reference has ``n_grid``).
+        A finer ``n_grid`` for the reference run alone (where it has one; :func:`check_reference_grid`).
     options : dict, optional
         ``{engine: {option: value}}`` fixed for every run of that engine (e.g. ``threads``).
     timeout_s : float
@@ -217,6 +218,7 @@ def bench_scene(scene_path: str | Path, output: str | Path, engines: list[str] |
         No engine can run the scene, or none offers a sweep.
     """
     output, scene, n_frames = open_study(output, overwrite, scene_path, n_frames, 2, DEFAULT_FRAMES)
+    check_reference_grid(reference_n_grid)
     keep = strip_frames(n_frames, n_strip_frames)
     plan, skipped = plan_engines(scene, scene_path, engines, quick, settings, reference_n_grid)
     option_keys = sorted({k for sw in plan.values() for s in sw for k in s if k not in SCENE_KEYS})
@@ -258,6 +260,15 @@ def bench_into(tmp: Path, scene: Scene, scene_path, plan: dict, skipped: dict, c
                                    skipped=skipped, strides=strides, total_s=time.perf_counter() - t_all,
                                    runner_line=how, plots=plots, strips_md=strips_md, ranking_md=rank_md)
     return rows, summary, rank_md
+
+
+def check_reference_grid(reference_n_grid) -> None:
+    """Raise :class:`SceneError` unless ``reference_n_grid`` is None or an integer in ``[domain] n_grid``'s range
+    (round 100: ``--reference-n-grid -3`` ran the whole sweep and its reference failed on the grid it was given)."""
+    if reference_n_grid is not None and (isinstance(reference_n_grid, bool) or not isinstance(reference_n_grid, int)
+                                         or not N_GRID_RANGE[0] <= reference_n_grid <= N_GRID_RANGE[1]):
+        raise SceneError(f"reference_n_grid (--reference-n-grid): expected an integer in [{N_GRID_RANGE[0]}, "
+                         f"{N_GRID_RANGE[1]}] as [domain] n_grid, got {reference_n_grid!r}")
 
 
 def plan_engines(scene: Scene, scene_path, engines: list[str] | None, quick: bool, settings, reference_n_grid):

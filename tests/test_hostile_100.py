@@ -14,8 +14,9 @@ named the file or the camera. ``gasp_core.render.paths.graphdeco_camera`` now ch
 ``settled: true`` (the points out of the grid had stopped moving); it is refused, and a body that leaves the domain
 while settling is counted (``settle.left_domain``, ``settled`` false). And on ``gasp compare`` and ``gasp bench``:
 ``--timeout 0`` was read as "not given" (the default hour), and ``--frames 10000000000`` ran on until each run's hour
-was up; the first is refused and the second stops after its first frame at ``gasp simulate``'s work bound. Each case
-takes about a second."""
+was up; the first is refused and the second stops after its first frame at ``gasp simulate``'s work bound; a
+``--reference-n-grid`` outside ``n_grid``'s range is refused before any run; and ``gasp bench`` itself ended in an
+exit-1 ``NameError`` after every sweep (its strips' line). Each case takes about a second."""
 from __future__ import annotations
 
 import json
@@ -260,3 +261,15 @@ def test_gasp_benchs_strips_line_is_printed(tmp_path, donut_small, capsys):
     scene.write_text(scene_text(donut_small, n_frames=1, n_grid=16))
     lines = bench_strips(tmp_path, load_scene(scene), (0, 1), [], [], [], True)
     assert lines[0] == "## Frames" and "gasp bench: strips: skipped" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("value", ["-3", "1", "100000"])
+def test_a_reference_grid_out_of_range_is_refused_before_any_run(tmp_path, donut_small, capsys, value):
+    """Was: ``--reference-n-grid -3`` ran the whole sweep and its reference failed on the grid it was given."""
+    needs_package("distributed")
+    scene = tmp_path / "s.toml"
+    scene.write_text(scene_text(donut_small, n_frames=2, n_grid=16, engine="warp_mpm"))
+    code = main(["bench", str(scene), "-o", str(tmp_path / "b"), "--reference-n-grid", value, "--quick"])
+    err = capsys.readouterr().err
+    assert code == 2 and f"--reference-n-grid): expected an integer in [8, 1024] as [domain] n_grid, got {value}" in err
+    assert not (tmp_path / "b").exists()
