@@ -16,7 +16,8 @@ while settling is counted (``settle.left_domain``, ``settled`` false). And on ``
 ``--timeout 0`` was read as "not given" (the default hour), and ``--frames 10000000000`` ran on until each run's hour
 was up; the first is refused and the second stops after its first frame at ``gasp simulate``'s work bound; a
 ``--reference-n-grid`` outside ``n_grid``'s range is refused before any run; and ``gasp bench`` itself ended in an
-exit-1 ``NameError`` after every sweep (its strips' line). Each case takes about a second."""
+exit-1 ``NameError`` after every sweep (its strips' line); ``--engines ""`` ran every engine. Each case takes about
+a second."""
 from __future__ import annotations
 
 import json
@@ -273,3 +274,16 @@ def test_a_reference_grid_out_of_range_is_refused_before_any_run(tmp_path, donut
     err = capsys.readouterr().err
     assert code == 2 and f"--reference-n-grid): expected an integer in [8, 1024] as [domain] n_grid, got {value}" in err
     assert not (tmp_path / "b").exists()
+
+
+@pytest.mark.parametrize("command", ["compare", "bench"])
+@pytest.mark.parametrize("engines", ["", " , ,"])
+def test_engines_naming_no_engine_is_refused(tmp_path, donut_small, capsys, command, engines):
+    """Was: ``--engines ""`` ran every installed engine, as if the flag were not given."""
+    needs_package("distributed")
+    scene = tmp_path / "s.toml"
+    scene.write_text(scene_text(donut_small, n_frames=2, n_grid=16, engine="warp_mpm"))
+    code = main([command, str(scene), "-o", str(tmp_path / "o"), "--engines", engines])
+    err = capsys.readouterr().err
+    assert code == 2 and "--engines: expected comma-separated engine names" in err, err
+    assert not (tmp_path / "o").exists()

@@ -33,7 +33,7 @@ from gasp_core.cli.args import GaspArgumentParser, add_export_parser, length, po
 from gasp_core.cli.engines import cmd_engines
 from gasp_core.cli.place import add_place_parser
 from gasp_core.cli.simulate import add_simulate_parser, reporter_for
-from gasp_core.errors import (EngineBug, EngineDivergence, GaspError, extra_hint, missing_module_message,
+from gasp_core.errors import (EngineBug, EngineDivergence, GaspError, SceneError, extra_hint, missing_module_message,
                               save_traceback)
 from gasp_core.scene.values import UP_AXES
 from gasp_core.run import stop
@@ -98,10 +98,26 @@ def _studies(module: str):
     return importlib.import_module(f"gasp_studies.{module}")
 
 
+def _engine_names(text: str | None) -> list[str] | None:
+    """``--engines`` as a list of names (None where it is not given: every engine that can run the scene).
+
+    Raises
+    ------
+    SceneError
+        Given but naming no engine (``--engines ""``: round 100, it ran every engine as if not given)."""
+    if text is None:
+        return None
+    names = [e.strip() for e in text.split(",") if e.strip()]
+    if not names:
+        raise SceneError(f"--engines: expected comma-separated engine names (see 'gasp engines'), got {text!r}; "
+                         "leave it out to run every engine that can")
+    return names
+
+
 def _cmd_compare(args) -> int:
     kw = {} if args.timeout is None else {"timeout_s": args.timeout}
     _studies("compare").compare_scene(
-        args.scene, [e.strip() for e in args.engines.split(",") if e.strip()] if args.engines else None,
+        args.scene, _engine_names(args.engines),
         args.output, overwrite=args.overwrite, n_frames=args.frames, max_gaussians=args.max_gaussians,
         scheduler=args.scheduler, workers=args.workers, n_strip_frames=args.strip_frames, **kw)
     return 0
@@ -110,7 +126,7 @@ def _cmd_compare(args) -> int:
 def _cmd_bench(args) -> int:
     bench = _studies("bench")
     kw = {} if args.timeout is None else {"timeout_s": args.timeout}
-    bench.bench_scene(args.scene, args.output, engines=args.engines.split(",") if args.engines else None,
+    bench.bench_scene(args.scene, args.output, engines=_engine_names(args.engines),
                       overwrite=args.overwrite, n_frames=args.frames, quick=args.quick,
                       reference_n_grid=args.reference_n_grid or None,
                       max_gaussians=bench.DEFAULT_MAX_GAUSSIANS if args.max_gaussians is None else
