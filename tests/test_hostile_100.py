@@ -16,8 +16,9 @@ while settling is counted (``settle.left_domain``, ``settled`` false). And on ``
 ``--timeout 0`` was read as "not given" (the default hour), and ``--frames 10000000000`` ran on until each run's hour
 was up; the first is refused and the second stops after its first frame at ``gasp simulate``'s work bound; a
 ``--reference-n-grid`` outside ``n_grid``'s range is refused before any run; and ``gasp bench`` itself ended in an
-exit-1 ``NameError`` after every sweep (its strips' line); ``--engines ""`` ran every engine. Each case takes about
-a second."""
+exit-1 ``NameError`` after every sweep (its strips' line); ``--engines ""`` ran every engine. And an
+``[[object]] alpha`` under 1 shrank every Gaussian at rest from frame 0; it is refused (``ALPHA_MIN``). Each case takes
+about a second."""
 from __future__ import annotations
 
 import json
@@ -287,3 +288,24 @@ def test_engines_naming_no_engine_is_refused(tmp_path, donut_small, capsys, comm
     err = capsys.readouterr().err
     assert code == 2 and "--engines: expected comma-separated engine names" in err, err
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("alpha", ["0.5", "0.999"])
+def test_an_alpha_below_1_is_refused(tmp_path, donut_small, capsys, alpha):
+    """Was: ``alpha = 0.5`` shrank every Gaussian at rest to half its size from frame 0 (the rule clamps an edge over
+    alpha times its rest length, and every edge at rest is), without a word."""
+    scene = tmp_path / "s.toml"
+    scene.write_text(scene_text(donut_small, n_frames=1, n_grid=16, engine="warp_mpm", extra_object=f"alpha = {alpha}"))
+    code, err = run_simulate(capsys, scene, tmp_path / "o")
+    assert code == 2 and f"alpha = {alpha} (float); expected a stretch bound of at least 1" in err, err
+    assert not (tmp_path / "o").exists()
+
+
+def test_the_alpha_check_catches_the_rule_before():
+    """Both sides of the bound, on the rule itself: at alpha 1 a triangle at rest keeps its scales; at 0.5 every one
+    is halved, which a scene may no longer ask for."""
+    from gasp_core.maps.games import alpha_rule
+    tri = np.array([[[0.0, 0.0, 0.0], [0.02, 0.0, 0.0], [0.0, 0.01, 0.0]]])
+    scales = np.array([[1e-6, 0.02, 0.01]])
+    assert np.array_equal(alpha_rule(tri, tri, scales, scales, 1.0)[0], scales)
+    assert np.allclose(alpha_rule(tri, tri, scales, scales, 0.5)[0][:, 1:], 0.5 * scales[:, 1:])

@@ -59,9 +59,9 @@ from gasp_core.scene.mesh import MESH_KEYS, MeshSpec, read_mesh
 from gasp_core.scene.quality import DEFAULT_QUALITY, apply_quality, read_quality
 from gasp_core.scene.select import SelectSpec, read_rest_collider, read_select, read_static
 from gasp_core.scene.tables import DomainSpec, EngineSpec, read_boundaries, read_domain, read_engine, read_material
-from gasp_core.scene.values import (MAX_COORD, MAX_GRAVITY, MAX_SPEED, MAX_SPIN, SCALE_RANGE, UP_AXES, as_boolean,
-                                    as_integer, as_number, as_string, as_table, as_tables, as_vec3, bad_value,
-                                    check_keys, is_number, read_key, resolve_path)
+from gasp_core.scene.values import (ALPHA_MIN, MAX_COORD, MAX_GRAVITY, MAX_SPEED, MAX_SPIN, SCALE_RANGE, UP_AXES,
+                                    as_boolean, as_integer, as_number, as_string, as_table, as_tables, as_vec3,
+                                    bad_value, check_keys, is_number, read_key, resolve_path)
 from gasp_core.seam.setup import FRAME_DT_RANGE, Boundary, Material
 
 #: ``[[object]] surface``: the triangle vertices are material points, or passive (massless, carried), or
@@ -280,8 +280,9 @@ def _object(o: dict, where: str, src: Path) -> ObjectSpec:
     alpha = o.get("alpha", ObjectSpec.alpha)
     if alpha is False or alpha is None:
         alpha = None
-    elif not is_number(alpha) or not math.isfinite(alpha) or alpha <= 0:
-        bad_value(src, f"{where}.alpha", alpha, "a positive number, or false to disable the control rule")
+    elif not is_number(alpha) or not math.isfinite(alpha) or alpha < ALPHA_MIN:
+        bad_value(src, f"{where}.alpha", alpha, f"a stretch bound of at least {ALPHA_MIN:g} (the paper ablates 1 to "
+                  "5; below 1 the rule shrinks every Gaussian at rest), or false to disable the control rule")
     else:
         alpha = float(alpha)
 

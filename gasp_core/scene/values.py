@@ -120,6 +120,9 @@ SCALE_RANGE = (1e-6, 1e6)
 #: Largest ``[domain] padding`` (times the objects' extent on each side): beyond it the objects
 #: span fewer than ``n_grid / 21`` cells.
 MAX_PADDING = 10.0
+#: The least ``[[object]] alpha``, the control rule's stretch bound (paper Eq. alpha_rule; its Table 4 ablates 1 to
+#: 5): below 1 the rule shrinks every Gaussian at rest, from frame 0 (round 100: 0.5 halved them all, unsaid).
+ALPHA_MIN = 1.0
 #: ``[domain] n_grid`` and ``particles_per_cell`` ranges (integers).
 N_GRID_RANGE = (8, 1024)
 PPC_RANGE = (1, 64)
