@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from gasp_testing import needs_package
 
 from gasp_core.cli.main import main
 from gasp_core.errors import SceneError
@@ -99,3 +100,83 @@ def test_frame_writer_output_still_reads(tmp_path, donut_small):
         w.write(f, [g, g])
         assert open_frames(tmp_path).n_frames == f + 1
         assert json.loads((tmp_path / "frames.json").read_text())["n_frames"] == f + 1
+
+
+# ------------------------------------------------------------------ 2. a collider mesh too small for the grid
+
+
+def _box(extents) -> np.ndarray:
+    trimesh = needs_package("trimesh")
+    needs_package("rtree")
+    return trimesh.creation.box(extents=extents).triangles
+
+
+def test_a_closed_1nm_box_is_refused_as_too_small_not_as_open():
+    from gasp_core.colliders.sdf import SDF_SPACING, collider_from_triangles
+    dx = 0.01
+    with pytest.raises(SceneError) as e:
+        collider_from_triangles(_box((1e-9,) * 3), SDF_SPACING * dx, name="[[collider]] #1 (nm.stl)")
+    msg = str(e.value)
+    assert "not closed" not in msg, msg
+    assert "[[collider]] #1 (nm.stl)" in msg and "1e-09 m across" in msg and "dx = 0.01 m" in msg, msg
+
+
+def test_a_mesh_smaller_than_a_grid_cell_is_refused_and_one_cell_across_is_taken():
+    from gasp_core.colliders.sdf import SDF_SPACING, collider_from_triangles
+    dx = 0.01
+    with pytest.raises(SceneError, match=r"0\.005 m across.*dx = 0\.01 m"):
+        collider_from_triangles(_box((0.005, 0.004, 0.003)), SDF_SPACING * dx)
+    c = collider_from_triangles(_box((0.01, 0.004, 0.003)), SDF_SPACING * dx)
+    assert c.triangles is not None and c.h == SDF_SPACING * dx
+
+
+def test_a_closed_1nm_box_in_a_scene_names_its_size_and_the_file(tmp_path):
+    """The scene's route: trimesh.load merged the box's eight corners into one point before any check."""
+    trimesh = needs_package("trimesh")
+    needs_package("rtree")
+    from gasp_core.prepare.colliders import build_colliders
+    from gasp_core.scene.spec import parse_scene
+    mesh = tmp_path / "nm_box.stl"
+    trimesh.creation.box(extents=(1e-9,) * 3).export(mesh)
+    scene = parse_scene({"object": [{"file": str(DATA / "donut_v3dg.ply")}],
+                         "collider": [{"mesh": str(mesh)}]}, tmp_path / "s.toml")
+    with pytest.raises(SceneError) as e:
+        build_colliders(scene, [], 0.02)
+    msg = str(e.value)
+    assert "not closed" not in msg and "nm_box.stl" in msg and "[[collider]]" in msg, msg
+    assert "1e-09 m across" in msg and "dx = 0.02 m" in msg, msg
+
+
+@pytest.mark.parametrize("size", [1e-9, 1e-6, 0.2])
+def test_an_open_mesh_is_still_refused_as_not_closed_at_any_size(size):
+    from gasp_core.colliders.sdf import collider_from_triangles
+    with pytest.raises(SceneError, match="not closed"):
+        collider_from_triangles(_box((size, 2 * size, 3 * size))[:-2], 0.005)
+
+
+def test_a_flat_mesh_is_refused_as_degenerate():
+    """A box flattened to no thickness (its faces collapse, top and bottom coincide), and four distinct points in
+    one plane joined as a tetrahedron (closed: every edge shared by two faces): no inside either way."""
+    from gasp_core.colliders.sdf import collider_from_triangles
+    with pytest.raises(SceneError, match=r"degenerate: its vertices lie within 0 m of one plane \(0\.2 m across\)"):
+        collider_from_triangles(_box((0.2, 0.2, 0.0)), 0.005)
+    v = np.array([[0.0, 0, 0], [0.3, 0, 0], [0, 0.3, 0], [0.1, 0.1, 0]])
+    with pytest.raises(SceneError, match="degenerate: its vertices lie within 0 m of one plane"):
+        collider_from_triangles(v[np.array([(0, 2, 1), (0, 1, 3), (1, 2, 3), (2, 0, 3)])], 0.005)
+
+
+def test_a_closed_mesh_whose_volume_cancels_is_refused_as_degenerate():
+    """Two closed boxes apart, the second turned inside out: watertight, 0.3 m across, a net volume of 0."""
+    from gasp_core.colliders.sdf import collider_from_triangles
+    a = _box((0.1, 0.1, 0.1))
+    b = (a + [0.2, 0.0, 0.0])[:, ::-1]          # moved 0.1 m beyond the first, each face's order reversed
+    with pytest.raises(SceneError, match=r"degenerate: closed, 0\.3 m across, but it encloses a volume of \S+ m\^3"):
+        collider_from_triangles(np.concatenate([a, b]), 0.005)
+
+
+def test_a_mesh_with_a_vertex_that_is_not_finite_is_refused_naming_it():
+    from gasp_core.colliders.sdf import collider_from_triangles
+    tris = _box((0.2, 0.2, 0.2)).copy()
+    tris[3, 1, 2] = np.nan
+    with pytest.raises(SceneError, match="'ramp': 1 vertices are not finite numbers"):
+        collider_from_triangles(tris, 0.005, name="ramp")
