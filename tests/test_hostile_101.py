@@ -180,3 +180,41 @@ def test_a_mesh_with_a_vertex_that_is_not_finite_is_refused_naming_it():
     tris[3, 1, 2] = np.nan
     with pytest.raises(SceneError, match="'ramp': 1 vertices are not finite numbers"):
         collider_from_triangles(tris, 0.005, name="ramp")
+
+
+# ------------------------------------------------------------------ 3. two keyframes at one frame
+
+
+def _path(tmp_path, frames) -> Path:
+    f = tmp_path / "path.json"
+    f.write_text(json.dumps({"keyframes": [{"frame": fr, "position": [2, k, 1], "look_at": [0, 0, 0]}
+                                           for k, fr in enumerate(frames)]}))
+    return f
+
+
+@pytest.mark.parametrize("frames, said", [([0, 4, 4, 8], "keyframes 1 and 2"), ([4, 0, 4.0], "keyframes 0 and 2")])
+def test_two_keyframes_at_one_frame_are_refused(tmp_path, frames, said):
+    from gasp_core.render.paths import keyframe_path
+    f = _path(tmp_path, frames)
+    with pytest.raises(SceneError) as e:
+        keyframe_path(f)
+    msg = str(e.value)
+    assert str(f) in msg and said in msg and "frame 4" in msg and "\n" not in msg, msg
+
+
+def test_render_refuses_two_keyframes_at_one_frame(tmp_path, donut_small, capsys):
+    run = mini_run(tmp_path, donut_small, 2, 2)
+    f = _path(tmp_path, [0, 1, 1])
+    code = main(["render", str(run), "-o", str(tmp_path / "r.gif"), "-q", "--resolution", "32x24",
+                 "--camera-path", str(f)])
+    line = one_error(capsys.readouterr().err, code)
+    assert "path.json" in line and "keyframes 1 and 2" in line and "frame 1" in line, line
+    assert not (tmp_path / "r.gif").exists()
+
+
+def test_a_cut_on_the_next_frame_still_renders(tmp_path):
+    """A jump cut needs no shared frame: keyframes at 3 and 4 hold one camera to frame 3 and the other from 4."""
+    from gasp_core.render.paths import keyframe_path
+    cams = keyframe_path(_path(tmp_path, [0, 3, 4, 8]))(np.zeros(3), np.ones(3), 9, 64, 48, 40.0)
+    np.testing.assert_allclose(cams[3].position, [2, 1, 1])
+    np.testing.assert_allclose(cams[4].position, [2, 2, 1])
