@@ -64,7 +64,9 @@ def collider_from_triangles(triangles: np.ndarray, h: float, name: str = "collid
     Raises
     ------
     SceneError
-        trimesh missing, no triangles, or a mesh that is not watertight.
+        trimesh missing, no triangles, or (:func:`closed_mesh`) vertices that are not finite, a degenerate mesh
+        (flat, every face of zero area, or no volume), one that is not closed (watertight), or one smaller than a
+        grid cell (``h / SDF_SPACING``), each named.
     """
     try:
         import trimesh
@@ -74,11 +76,7 @@ def collider_from_triangles(triangles: np.ndarray, h: float, name: str = "collid
     tris = np.asarray(triangles, dtype=np.float64).reshape(-1, 3, 3)
     if len(tris) == 0:
         raise SceneError(f"collider '{name}': the mesh has no triangles")
-    mesh = trimesh.Trimesh(**trimesh.triangles.to_kwargs(tris))
-    mesh.merge_vertices()
-    if not mesh.is_watertight:
-        raise SceneError(f"collider '{name}': the mesh is not closed (watertight), so its inside is not "
-                         "defined; close it (e.g. give the surface a thickness)")
+    mesh = closed_mesh(tris, h / SDF_SPACING, name)
     origin, shape = _grid_around(mesh.bounds[0], mesh.bounds[1], h, name)
     ii = np.stack(np.meshgrid(*[np.arange(s) for s in shape], indexing="ij"), axis=-1).reshape(-1, 3)
     pts = origin + ii * h
@@ -89,6 +87,65 @@ def collider_from_triangles(triangles: np.ndarray, h: float, name: str = "collid
                          f"{extra_hint('mesh')}") from None
     phi = (-np.asarray(sd, dtype=np.float64)).reshape(shape)
     return _finish(name, phi, origin, h, triangles=tris, **kw)
+
+
+#: A mesh is degenerate when its vertices lie within this share of its size (its largest side) of one plane, or when
+#: it encloses less than this share of its size cubed: trimesh's merge tolerance (``tol.merge``) taken relative to the
+#: size, a sheet a hundredth of a micrometre thick on a metre, with no inside to keep out.
+DEGENERATE = 1e-8
+
+
+def closed_mesh(tris: np.ndarray, dx: float, name: str):
+    """The trimesh mesh of ``tris`` (m, 3, 3; metres), its vertices merged, after checking it bounds a solid the grid
+    can see.
+
+    Vertices are merged at trimesh's tolerance (``tol.merge``, 1e-8) relative to the mesh's size, in a copy scaled to
+    a unit size, not in metres (round 101: a closed box 1 nm across merged into one point and was refused as "not
+    closed"); faces the merge collapses to a segment or a point carry no surface and are left out. The mesh returned
+    is in metres again, with the merged vertices.
+
+    Raises
+    ------
+    SceneError
+        Naming the collider: vertices that are not finite; a degenerate mesh (its vertices within :data:`DEGENERATE`
+        of its size of one plane, every face of zero area, or a volume below :data:`DEGENERATE` of its size cubed);
+        one that is not closed (watertight); one whose size (its largest side) is below the grid's ``dx``, naming
+        both in metres.
+    """
+    import trimesh
+    pts = tris.reshape(-1, 3)
+    if not np.isfinite(pts).all():
+        raise SceneError(f"collider '{name}': {int((~np.isfinite(pts).all(axis=1)).sum())} vertices are not "
+                         "finite numbers; expected a mesh in metres")
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    size = float((hi - lo).max())
+    unit = (pts - (lo + hi) / 2) / (size or 1.0)
+    axis = np.linalg.eigh(np.cov(unit.T))[1][:, 0]          # the direction the vertices spread least along
+    thin = float(np.ptp(unit @ axis))
+    if thin <= DEGENERATE:
+        raise SceneError(f"collider '{name}': the mesh is degenerate: its vertices lie within {thin * size:.3g} m of "
+                         f"one plane ({size:.3g} m across), so it encloses no volume; expected a closed solid (give a "
+                         "surface a thickness)")
+    mesh = trimesh.Trimesh(**trimesh.triangles.to_kwargs(unit.reshape(-1, 3, 3)))
+    mesh.merge_vertices()
+    kept = np.array([len(set(f)) == 3 for f in mesh.faces.tolist()], bool)
+    if not kept.any():
+        raise SceneError(f"collider '{name}': the mesh is degenerate: every one of its {len(tris)} faces has zero "
+                         f"area once vertices closer than {DEGENERATE:g} of its size are merged")
+    mesh.update_faces(kept)
+    mesh.remove_unreferenced_vertices()
+    if not mesh.is_watertight:
+        raise SceneError(f"collider '{name}': the mesh is not closed (watertight), so its inside is not "
+                         "defined; close it (e.g. give the surface a thickness)")
+    if abs(float(mesh.volume)) < DEGENERATE:
+        raise SceneError(f"collider '{name}': the mesh is degenerate: closed, {size:.3g} m across, but it encloses a "
+                         f"volume of {abs(float(mesh.volume)) * size ** 3:.3g} m^3 (expected at least {DEGENERATE:g} "
+                         "of its size cubed): its faces fold onto one another, or a part of it is turned inside out")
+    if size < dx:
+        raise SceneError(f"collider '{name}': the mesh is {size:.3g} m across, smaller than one cell of the "
+                         f"simulation grid (dx = {dx:.3g} m), which cannot hold it; scale it up ([[collider]] scale) "
+                         "or refine the grid ([domain] n_grid)")
+    return trimesh.Trimesh(vertices=mesh.vertices * size + (lo + hi) / 2, faces=mesh.faces, process=False)
 
 
 def collider_from_splats(splats: np.ndarray, h: float, name: str = "collider", shell: bool = False,

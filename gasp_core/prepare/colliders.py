@@ -45,7 +45,8 @@ def build_colliders(scene, objects, dx: float, lo=None, hi=None, x=None) -> list
     Raises
     ------
     SceneError
-        An unreadable mesh, an open mesh, an ``object`` that is not found or not static.
+        An unreadable mesh, an open, degenerate or too small mesh (:func:`gasp_core.colliders.sdf.closed_mesh`), an
+        ``object`` that is not found or not static.
     """
     out = []
     h = SDF_SPACING * dx
@@ -56,7 +57,7 @@ def build_colliders(scene, objects, dx: float, lo=None, hi=None, x=None) -> list
         if spec.mesh is not None:
             try:
                 import trimesh
-                mesh = trimesh.load(spec.mesh, force="mesh")
+                mesh = trimesh.load(spec.mesh, force="mesh", process=False)   # merged relative to its size later
             except ImportError as e:   # trimesh itself, or Pillow for a mesh with texture coordinates
                 raise SceneError(missing_module_message(e, f"{spec.where}.mesh '{spec.mesh}'", "mesh")
                                  or f"{spec.where}.mesh '{spec.mesh}': {e}") from None

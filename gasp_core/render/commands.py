@@ -72,7 +72,8 @@ def add_parsers(sub) -> None:
                    help="circle the scene about the vertical by DEGREES over the video (default: still camera)")
     r.add_argument("--camera-path", default=None, metavar="JSON",
                    help='keyframed camera: {"keyframes": [{"frame": 0, "position": [x,y,z], "look_at": [x,y,z]}, '
-                        '...]}, world metres, frame = video frame; linear in between (default: off)')
+                        '...]}, world metres, frame = video frame, one keyframe per frame; linear in between '
+                        '(default: off)')
     r.add_argument("--fps", type=float, default=None, help="video frames per second (default: 1 / frame_dt of the run)")
     r.add_argument("-q", "--quiet", action="store_true", help="no progress bar (default: show one)")
     r.set_defaults(func=cmd_render)

@@ -98,13 +98,16 @@ def keyframe_path(file):
 
     The file: ``{"keyframes": [{"frame": 0, "position": [x, y, z], "look_at": [x, y, z]}, ...]}``,
     world metres, z up, ``frame`` the index in the rendered video; before the first and after the last
-    keyframe the camera holds still.
+    keyframe the camera holds still. Each frame takes at most one keyframe: the video is sampled at whole frames,
+    so a cut is two keyframes on consecutive frames (``4`` and ``5``), and two at one frame would leave the camera
+    there to the order of the file (round 101: numpy's interpolation picks one of the two without a word).
 
     Raises
     ------
     SceneError
         Unreadable file, no keyframes, or a keyframe without ``frame``, ``position`` or ``look_at``, with a
-        value that is not finite, or with ``position == look_at``.
+        value that is not finite, or with ``position == look_at``; two keyframes at the same frame (naming the file,
+        both keyframes and the frame).
     """
     file = Path(file)
     try:
@@ -124,6 +127,11 @@ def keyframe_path(file):
         if np.array_equal(p, q):
             raise SceneError(f"{file}: keyframe {k}: position and look_at are the same point {p.tolist()}")
     order = np.argsort(frames, kind="stable")
+    same = np.flatnonzero(np.diff(frames[order]) == 0)
+    if len(same):
+        i, j = sorted(order[same[0]:same[0] + 2])
+        raise SceneError(f"{file}: keyframes {i} and {j} are both at frame {frames[i]:g}; expected one keyframe per "
+                         f"frame (for a cut, put the second at the next frame, {frames[i] + 1:g})")
     frames, pos, look = frames[order], pos[order], look[order]
 
     def path(lo, hi, n, width, height, fov_deg):

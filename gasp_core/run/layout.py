@@ -318,8 +318,10 @@ def open_frames(folder) -> RunFrames:
     Raises
     ------
     SceneError
-        No ``frames.json`` and no ``<object>/frame_*.ply`` for an object of ``run.json``, or a
-        manifest that is not JSON; the message names the path.
+        No ``frames.json`` and no ``<object>/frame_*.ply`` for an object of ``run.json``, a
+        manifest that is not JSON or not what :class:`FrameWriter` writes (:func:`_check_manifest`: among others,
+        an object that is not ``static`` listing more or fewer frame files than ``n_frames``); the message names
+        the path.
     """
     folder = Path(folder)
     path = folder / MANIFEST
@@ -360,7 +362,9 @@ def _numbered_frames(folder: Path, name: str) -> list[str]:
 def _check_manifest(path: Path, manifest) -> None:
     """Refuse (:class:`SceneError` naming ``path`` and the field) a manifest that is not what
     :class:`FrameWriter` writes: ``objects`` a list of tables with a ``frames`` list of relative file names
-    inside the run folder, ``n_gaussians`` an integer, and ``n_frames`` an integer."""
+    inside the run folder, ``n_gaussians`` an integer, and ``n_frames`` an integer that every object but a
+    ``static`` one (written once, no frames) has as many frame files as (round 101: a manifest saying 3 frames and
+    listing 2 was read as 2 without a word)."""
     def bad(field, why):
         raise SceneError(f"{path}: {field}: {why}; not a frame manifest written by gasp simulate")
     if not isinstance(manifest, dict) or not isinstance(manifest.get("objects"), list):
@@ -375,6 +379,9 @@ def _check_manifest(path: Path, manifest) -> None:
         for f in files:
             if not isinstance(f, str) or Path(f).is_absolute() or ".." in Path(f).parts:
                 bad(f"objects[{k}]", f"expected file names inside the run folder, got {f!r}")
+        if "n_frames" in manifest and "static" not in o and len(o["frames"]) != manifest["n_frames"]:
+            bad(f"objects[{k}].frames", f"lists {len(o['frames'])} frame files, but n_frames = "
+                f"{manifest['n_frames']}; expected one file per frame")
         if o.get("up_axis", "+z") not in ("+x", "-x", "+y", "-y", "+z", "-z"):
             bad(f"objects[{k}].up_axis", f"expected one of +x -x +y -y +z -z, got {o.get('up_axis')!r}")
         n = o.get("n_gaussians", 0)
