@@ -159,6 +159,7 @@ def main() -> None:
     ap.add_argument("--frames", type=int, default=30)
     ap.add_argument("--mu", type=float, default=0.5, help="the crack faces' Coulomb coefficient")
     ap.add_argument("--d-min", type=float, default=0.25, help="--gate mean: each field's mean damage to part")
+    ap.add_argument("--radius", type=float, default=0.1, help="the ball's radius, m (the family's is 0.1)")
     ap.add_argument("--trace", action="store_true", help="the cells' motion (trace) at the first speed and grid")
     ap.add_argument("--out", required=True, help="a new JSON file (refused if it exists)")
     a = ap.parse_args()
@@ -177,10 +178,10 @@ def main() -> None:
         for g in (int(s) for s in a.grids.split(",")):
             for v in (float(s) for s in a.speeds.split(",")):
                 t0 = time.perf_counter()
-                setup = ball_setup(v, g)
+                setup = ball_setup(v, g, a.radius)
                 cell, split = grady_cells(setup, v)
                 r = counted(setup, cell, side, a.gate, a.frames, a.mu, a.d_min)
-                rows.append({"side": side, "gate": a.gate, "n_grid": g, "speed": v, "mu": a.mu, "d_min": a.d_min,
+                rows.append({"side": side, "gate": a.gate, "radius": a.radius, "n_grid": g, "speed": v, "mu": a.mu, "d_min": a.d_min,
                              "split": split, "seconds": round(time.perf_counter() - t0, 1), **r})
                 print(f"{side}/{a.gate} n_grid {g} v {v}: split {split}; tracker 5 % at 12 / {a.frames}: "
                       f"{r['tracker_5'][12]} / {r['tracker_5'][-1]}, kept frames {r['frames_kept_5'][-1]}, "
