@@ -35,6 +35,21 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import dfg100  # noqa: E402 (round 100's study beside this one)
 
 
+def cube_setup(speed: float, n_grid: int, side: float):
+    """The ball family's scene (``ball_setup``: its material, points at ``dx / 2``, ground, walls, frames) with a cube of
+    ``side`` m landing flat on a face at ``speed`` m/s: a neighbour shape for the cells."""
+    from gasp_core.seam.setup import Boundary, Material
+    from gasp_core.testing.helpers import box_points, make_setup
+    from gasp_core.testing.scenes_pieces import BALL
+    dx = 1 / n_grid
+    ground = 3 * dx + 0.004
+    lo = np.array([0.5 - side / 2, 0.5 - side / 2, ground + 0.005])
+    x, pv = box_points(lo, lo + side, dx / 2)
+    return make_setup(x, pv, Material("brittle", **BALL), v=np.array([0.0, 0.0, -speed]), n_grid=n_grid,
+                      frame_dt=0.01, boundaries=[Boundary("ground", height=ground, friction=0.5), Boundary("walls")],
+                      options={"precision": "f32", "threads": 1})
+
+
 def grady_cells(setup, speed: float) -> tuple[np.ndarray | None, dict]:
     """Each point's Grady cell (setup order, int; None where the landing does not break the ball) and the split, laid
     as round 99's and 100's probes lay them (``gasp_core.run.fragments``: ``break_check``, ``split_body``)."""
@@ -160,6 +175,7 @@ def main() -> None:
     ap.add_argument("--mu", type=float, default=0.5, help="the crack faces' Coulomb coefficient")
     ap.add_argument("--d-min", type=float, default=0.25, help="--gate mean: each field's mean damage to part")
     ap.add_argument("--radius", type=float, default=0.1, help="the ball's radius, m (the family's is 0.1)")
+    ap.add_argument("--cube", type=float, default=0.0, help="over 0: a cube of this side, m, instead of the ball")
     ap.add_argument("--trace", action="store_true", help="the cells' motion (trace) at the first speed and grid")
     ap.add_argument("--out", required=True, help="a new JSON file (refused if it exists)")
     a = ap.parse_args()
@@ -178,10 +194,10 @@ def main() -> None:
         for g in (int(s) for s in a.grids.split(",")):
             for v in (float(s) for s in a.speeds.split(",")):
                 t0 = time.perf_counter()
-                setup = ball_setup(v, g, a.radius)
+                setup = cube_setup(v, g, a.cube) if a.cube > 0 else ball_setup(v, g, a.radius)
                 cell, split = grady_cells(setup, v)
                 r = counted(setup, cell, side, a.gate, a.frames, a.mu, a.d_min)
-                rows.append({"side": side, "gate": a.gate, "radius": a.radius, "n_grid": g, "speed": v, "mu": a.mu, "d_min": a.d_min,
+                rows.append({"side": side, "gate": a.gate, "radius": a.radius, "cube": a.cube, "n_grid": g, "speed": v, "mu": a.mu, "d_min": a.d_min,
                              "split": split, "seconds": round(time.perf_counter() - t0, 1), **r})
                 print(f"{side}/{a.gate} n_grid {g} v {v}: split {split}; tracker 5 % at 12 / {a.frames}: "
                       f"{r['tracker_5'][12]} / {r['tracker_5'][-1]}, kept frames {r['frames_kept_5'][-1]}, "
