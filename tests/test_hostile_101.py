@@ -82,6 +82,19 @@ def test_render_and_export_refuse_it_in_one_line(tmp_path, donut_small, capsys, 
     assert not out.exists()
 
 
+@pytest.mark.parametrize("n_frames", [0, -2])
+def test_a_frames_json_of_no_frames_is_refused(tmp_path, donut_small, n_frames):
+    """Round 101 (lead): a manifest whose objects all list their frames agrees with any n_frames when every moving
+    object is gone; n_frames 0 or below was read as a run of no frames (an all-static run took its count from it)."""
+    from gasp_core.run.layout import open_frames
+    run = mini_run(tmp_path, donut_small, 1, 1, static=True)
+    manifest = json.loads((run / "frames.json").read_text())
+    manifest.update(n_frames=n_frames, objects=manifest["objects"][1:])
+    atomic_json(run / "frames.json", manifest)
+    with pytest.raises(SceneError, match=rf"frames.json: n_frames: expected a count of frames, 1 or more.*{n_frames}"):
+        open_frames(run)
+
+
 def test_a_consistent_frames_json_still_reads(tmp_path, donut_small):
     """What gasp simulate writes: every moving object lists n_frames files, a static one (split layout) none."""
     from gasp_core.run.layout import open_frames

@@ -362,15 +362,16 @@ def _numbered_frames(folder: Path, name: str) -> list[str]:
 def _check_manifest(path: Path, manifest) -> None:
     """Refuse (:class:`SceneError` naming ``path`` and the field) a manifest that is not what
     :class:`FrameWriter` writes: ``objects`` a list of tables with a ``frames`` list of relative file names
-    inside the run folder, ``n_gaussians`` an integer, and ``n_frames`` an integer that every object but a
+    inside the run folder, ``n_gaussians`` an integer, and ``n_frames`` a count (1 or more) that every object but a
     ``static`` one (written once, no frames) has as many frame files as (round 101: a manifest saying 3 frames and
     listing 2 was read as 2 without a word)."""
     def bad(field, why):
         raise SceneError(f"{path}: {field}: {why}; not a frame manifest written by gasp simulate")
     if not isinstance(manifest, dict) or not isinstance(manifest.get("objects"), list):
         bad("objects", "expected a list of objects")
-    if not isinstance(manifest.get("n_frames", 1), int) or isinstance(manifest.get("n_frames", 1), bool):
-        bad("n_frames", f"expected an integer, got {manifest.get('n_frames')!r}")
+    n_frames = manifest.get("n_frames", 1)
+    if not isinstance(n_frames, int) or isinstance(n_frames, bool) or n_frames < 1:
+        bad("n_frames", f"expected a count of frames, 1 or more (frame 0 is always written), got {n_frames!r}")
     for k, o in enumerate(manifest["objects"]):
         if not isinstance(o, dict) or not isinstance(o.get("frames"), list):
             bad(f"objects[{k}]", "expected a table with a list 'frames'")
