@@ -50,6 +50,22 @@ def cube_setup(speed: float, n_grid: int, side: float):
                       options={"precision": "f32", "threads": 1})
 
 
+def donut_setup(n_grid: int):
+    """The brittle README donut thrown down at 4.43 m/s (a 1 m drop; ``benchmarks/brittle_readme_donut.py``'s scene at
+    the schema's brittle defaults, ``n_grid``), its material points alone, moved so that the grid starts at the
+    origin (the study's grid), its ground there too."""
+    from types import SimpleNamespace
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+    from brittle_readme_donut import brittle, donut_setup as scene
+    s = scene("warp_mpm", n_grid, brittle("new"))
+    m = s.p_mass > 0
+    lo = np.asarray(s.domain_lo, np.float64)
+    ground = SimpleNamespace(height=s.boundaries[0].height - lo[2], friction=s.boundaries[0].friction)
+    return SimpleNamespace(materials=s.materials, x=s.x[m] - lo, v=s.v[m], p_mass=s.p_mass[m], p_vol=s.p_vol[m],
+                           body_id=np.zeros(int(m.sum()), int), crack_band=s.crack_band, n_grid=s.n_grid, dx=s.dx,
+                           gravity=s.gravity, frame_dt=s.frame_dt, boundaries=[ground])
+
+
 def grady_cells(setup, speed: float) -> tuple[np.ndarray | None, dict]:
     """Each point's Grady cell (setup order, int; None where the landing does not break the ball) and the split, laid
     as round 99's and 100's probes lay them (``gasp_core.run.fragments``: ``break_check``, ``split_body``)."""
@@ -59,8 +75,10 @@ def grady_cells(setup, speed: float) -> tuple[np.ndarray | None, dict]:
         return None, {"count": 0}
     count = int(min(fragments.MAX_FRAGMENTS, max(2, round(vol / chk["size"] ** 3))))
     spacing = float(np.cbrt(np.max(setup.p_vol)))
+    centre = [0.5, 0.5] if len(setup.x) and abs(float(np.mean(setup.x[:, 0])) - 0.5) < 0.05 else \
+        list(np.mean(setup.x[:, :2], axis=0))   # the ball and the cube at the grid's middle; the donut's centre
     cell = fragments.split_body(setup.x, np.ones(len(setup.x), bool), spacing,
-                                np.array([0.5, 0.5, setup.x[:, 2].min()]), count, chk["size"])
+                                np.array([*centre, setup.x[:, 2].min()]), count, chk["size"])
     return cell, {"count": count, "cells": int(cell.max() + 1), "size_dx": round(chk["size"] / setup.dx, 2)}
 
 
@@ -148,15 +166,19 @@ def counted(setup, cell, side: str, gate: str, frames: int, mu_c: float, d_min: 
                        remember=True)
     band = ~ball.never if cell is not None else np.zeros(len(ball.x), bool)
     total = float(setup.p_mass.sum())
-    out = {"tracker_5": [], "tracker_cells_5": [], "frames_kept_5": [], "broken": []}
+    out = {"tracker_5": [], "tracker_cells_5": [], "frames_kept_5": [], "tracker_cells_1": [], "frames_kept_1": [],
+           "broken": []}
     for i in range(frames + 1):
         if i:
             ball.step_frame()
         d = ball.d if i else None
         out["tracker_5"].append(tracker_count(t.row(ball.x, d)[0], total, 0.05))
         d_cells = None if d is None else np.where(band, 1.0, d)
-        out["tracker_cells_5"].append(tracker_count(t_cells.row(ball.x, d_cells)[0], total, 0.05))
+        row = t_cells.row(ball.x, d_cells)[0]
+        out["tracker_cells_5"].append(tracker_count(row, total, 0.05))
+        out["tracker_cells_1"].append(tracker_count(row, total, 0.01))
         out["frames_kept_5"].append(kept.count(ball.x, 0.05))
+        out["frames_kept_1"].append(kept.count(ball.x, 0.01))
         out["broken"].append(round(float(np.mean(ball.d >= 0.9)), 3))
     out["n_substeps"] = ball.n_sub
     return out
@@ -192,6 +214,8 @@ def main() -> None:
     ap.add_argument("--d-min", type=float, default=0.25, help="--gate mean: each field's mean damage to part")
     ap.add_argument("--radius", type=float, default=0.1, help="the ball's radius, m (the family's is 0.1)")
     ap.add_argument("--cube", type=float, default=0.0, help="over 0: a cube of this side, m, instead of the ball")
+    ap.add_argument("--donut", action="store_true", help="the brittle README donut at 4.43 m/s (donut_setup)")
+    ap.add_argument("--one", action="store_true", help="one velocity field (the engines' class), no cells")
     ap.add_argument("--trace", action="store_true", help="the cells' motion (trace) at the first speed and grid")
     ap.add_argument("--out", required=True, help="a new JSON file (refused if it exists)")
     a = ap.parse_args()
@@ -211,13 +235,15 @@ def main() -> None:
             for v in (float(s) for s in a.speeds.split(",")):
                 t0 = time.perf_counter()
                 setup = cube_setup(v, g, a.cube) if a.cube > 0 else ball_setup(v, g, a.radius)
-                cell, split = grady_cells(setup, v)
+                if a.donut:
+                    setup, v = donut_setup(g), 4.43
+                cell, split = (None, {}) if a.one else grady_cells(setup, v)
                 r = counted(setup, cell, side, a.gate, a.frames, a.mu, a.d_min)
-                rows.append({"side": side, "gate": a.gate, "radius": a.radius, "cube": a.cube, "n_grid": g, "speed": v, "mu": a.mu, "d_min": a.d_min,
+                rows.append({"side": side, "gate": a.gate, "radius": a.radius, "cube": a.cube, "donut": a.donut, "one": a.one, "n_grid": g, "speed": v, "mu": a.mu, "d_min": a.d_min,
                              "split": split, "seconds": round(time.perf_counter() - t0, 1), **r})
                 print(f"{side}/{a.gate} n_grid {g} v {v}: split {split}; tracker 5 % at 12 / {a.frames}: "
-                      f"{r['tracker_5'][12]} / {r['tracker_5'][-1]}, with the cells' rule {r['tracker_cells_5'][-1]}, "
-                      f"kept frames {r['frames_kept_5'][-1]}, "
+                      f"{r['tracker_5'][min(12, a.frames)]} / {r['tracker_5'][-1]}, with the cells' rule {r['tracker_cells_5'][-1]}, "
+                      f"kept frames {r['frames_kept_5'][-1]} (1 %: {r['frames_kept_1'][-1]}), "
                       f"broken {r['broken'][-1]}, {rows[-1]['seconds']} s", flush=True)
     with open(a.out, "x") as f:
         json.dump(rows, f, indent=1)
