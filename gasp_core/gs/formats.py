@@ -183,6 +183,21 @@ def write_spz(path, g: Gaussians, *, overwrite: bool = False) -> Path:
     return write_splat_file(path, g, "spz", overwrite=overwrite)
 
 
+#: Largest coordinate SPZ holds, file units: gsply writes signed 24-bit fixed point with 12 fractional bits and clamps
+#: anything beyond (2^23 - 1) / 2^12 to it.
+SPZ_MAX_COORD = ((1 << 23) - 1) / (1 << 12)
+
+
+def _check_spz_range(path, g: Gaussians) -> None:
+    """Refuse (:class:`SceneError`) a mean SPZ would clamp: one line naming the file, the row and the range."""
+    far = np.abs(g.means) > SPZ_MAX_COORD - 0.5 / (1 << 12)   # rounds past the last step
+    if far.any():
+        i = int(np.flatnonzero(far.any(axis=1))[0])
+        reject_file(path, f"Gaussian at index {i} is at {g.means[i].tolist()}; SPZ holds coordinates within "
+                    f"+-{SPZ_MAX_COORD:.4f} (2048) file units and would clamp it: write another format (ply, sog, "
+                    "compressed_ply) or move the object nearer the origin")
+
+
 def write_splat_file(path, g: Gaussians, fmt: str, *, overwrite: bool = False) -> Path:
     """Write ``g`` as one file of format ``fmt`` (``compressed_ply``, ``spz`` or ``sog``), atomically.
 
@@ -208,6 +223,8 @@ def write_splat_file(path, g: Gaussians, fmt: str, *, overwrite: bool = False) -
         Unknown ``fmt``.
     GaspError
         ``compressed_ply`` / ``spz`` without gsply.
+    SceneError
+        ``spz``: a coordinate beyond :data:`SPZ_MAX_COORD` (the 24-bit fixed point would clamp it to the edge).
     """
     path = Path(path)
     if fmt == "sog":
@@ -217,6 +234,7 @@ def write_splat_file(path, g: Gaussians, fmt: str, *, overwrite: bool = False) -
         raise ValueError(f"unknown format {fmt!r}; expected compressed_ply, spz or sog")
     gsply = gsply_module(path, f"writing {fmt}")
     if fmt == "spz":
+        _check_spz_range(path, g)
         g = flip_yz(g)
     means, log_s, q, opac, sh0, shn = gsply_arrays(g)
     # the encoders need finite values: a zero scale (log = -inf) is stored as exp(-30)

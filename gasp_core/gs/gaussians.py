@@ -161,6 +161,32 @@ def _first_bad_row(bad: np.ndarray) -> int:
     return int(np.flatnonzero(bad)[0])
 
 
+def _check_values(g: "Gaussians", fail) -> None:
+    """The value checks of :meth:`Gaussians.check`; ``fail(msg)`` raises."""
+    bad = ~np.isfinite(g.means)
+    if bad.any():
+        fail(f"field 'means': non-finite position at index {_first_bad_row(bad)}")
+    bad = ~np.isfinite(g.rotations)
+    if bad.any():
+        fail(f"field 'rotations': non-finite quaternion at index {_first_bad_row(bad)}")
+    bad = ~(np.linalg.norm(g.rotations, axis=1) > 1e-12)
+    if bad.any():
+        fail(f"field 'rotations': zero-norm quaternion at index {_first_bad_row(bad)}")
+    bad = ~(np.isfinite(g.scales) & (g.scales >= 0))
+    if bad.any():
+        fail(f"field 'scales': expected finite scales >= 0, bad at index {_first_bad_row(bad)}")
+    for name in ("means", "scales"):
+        bad = np.abs(getattr(g, name)) > MAX_MAGNITUDE
+        if bad.any():
+            i = _first_bad_row(bad)
+            fail(f"field '{name}': {getattr(g, name)[i].tolist()} at index {i}; expected magnitudes "
+                 f"<= {MAX_MAGNITUDE:g} (float32 headroom)")
+    for name in ("opacities", "sh_dc", "sh_rest"):  # an opacity logit of +-inf is alpha 1 or 0
+        bad = np.isnan(g.opacities) if name == "opacities" else ~np.isfinite(getattr(g, name))
+        if bad.any():
+            fail(f"field '{name}': non-finite value at index {_first_bad_row(bad)}")
+
+
 @dataclass
 class Gaussians:
     """A Gaussian Splatting scene, one row per Gaussian.
@@ -215,15 +241,8 @@ class Gaussians:
     meta: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self):
-        where = f"{self.source or '<in-memory Gaussians>'}"
-
-        def fail(msg: str):
-            raise SceneError(f"{where}: {msg}")
-
         self.means = np.ascontiguousarray(self.means, dtype=np.float64)
-        if self.means.ndim != 2 or self.means.shape[1] != 3:
-            fail(f"field 'means': expected shape (n, 3), got {self.means.shape}")
-        n = len(self.means)
+        n = len(self.means) if self.means.ndim else 0
         self.scales = np.ascontiguousarray(self.scales, dtype=np.float64)
         self.rotations = np.ascontiguousarray(self.rotations, dtype=np.float64)
         self.opacities = np.ascontiguousarray(self.opacities, dtype=np.float32)
@@ -231,6 +250,37 @@ class Gaussians:
         if self.sh_rest is None:
             self.sh_rest = np.zeros((n, 0, 3), dtype=np.float32)
         self.sh_rest = np.ascontiguousarray(self.sh_rest, dtype=np.float32)
+        self.extra = {str(key): np.asarray(val) for key, val in self.extra.items()}
+        self.check()
+        norm = np.linalg.norm(self.rotations, axis=1)
+        off = np.abs(norm - 1.0) > 1e-12  # leave unit rows untouched so copies stay equal
+        if off.any():
+            self.rotations = self.rotations.copy()  # never scale the caller's array in place
+            self.rotations[off] /= norm[off, None]
+
+    def check(self, where: str | None = None) -> None:
+        """Refuse what the constructor refuses, as the fields are now: a writer calls it, since the arrays can be
+        changed after the Gaussians were built (``g.scales[0] = nan``).
+
+        Parameters
+        ----------
+        where : str, optional
+            What the message names first (a file being written); default ``source``.
+
+        Raises
+        ------
+        SceneError
+            As the class (a shape, a non-finite or zero-norm quaternion, a negative or non-finite scale, ...);
+            the message names ``where``, the field and the first bad index.
+        """
+        where = where or self.source or "<in-memory Gaussians>"
+
+        def fail(msg: str):
+            raise SceneError(f"{where}: {msg}")
+
+        if self.means.ndim != 2 or self.means.shape[1] != 3:
+            fail(f"field 'means': expected shape (n, 3), got {self.means.shape}")
+        n = len(self.means)
         for name, shape in (("scales", (n, 3)), ("rotations", (n, 4)), ("opacities", (n,)),
                             ("sh_dc", (n, 3))):
             got = getattr(self, name).shape
@@ -241,39 +291,12 @@ class Gaussians:
                 or k not in SH_REST_COUNT.values():
             fail(f"field 'sh_rest': expected shape ({n}, K, 3) with K in (0, 3, 8, 15), "
                  f"got {self.sh_rest.shape}")
-        self.extra = {str(key): np.asarray(val) for key, val in self.extra.items()}
         for key, val in self.extra.items():
             if val.shape != (n,):
                 fail(f"extra property '{key}': expected shape ({n},), got {val.shape}")
         if self.layout not in LAYOUTS:
             fail(f"layout '{self.layout}': expected one of {sorted(LAYOUTS)}")
-        bad = ~np.isfinite(self.means)
-        if bad.any():
-            fail(f"field 'means': non-finite position at index {_first_bad_row(bad)}")
-        bad = ~np.isfinite(self.rotations)
-        if bad.any():
-            fail(f"field 'rotations': non-finite quaternion at index {_first_bad_row(bad)}")
-        norm = np.linalg.norm(self.rotations, axis=1)
-        bad = ~(norm > 1e-12)
-        if bad.any():
-            fail(f"field 'rotations': zero-norm quaternion at index {_first_bad_row(bad)}")
-        bad = ~(np.isfinite(self.scales) & (self.scales >= 0))
-        if bad.any():
-            fail(f"field 'scales': expected finite scales >= 0, bad at index {_first_bad_row(bad)}")
-        for name, limit in (("means", MAX_MAGNITUDE), ("scales", MAX_MAGNITUDE)):
-            bad = np.abs(getattr(self, name)) > limit
-            if bad.any():
-                i = _first_bad_row(bad)
-                fail(f"field '{name}': {getattr(self, name)[i].tolist()} at index {i}; expected magnitudes "
-                     f"<= {limit:g} (float32 headroom)")
-        for name in ("opacities", "sh_dc", "sh_rest"):  # an opacity logit of +-inf is alpha 1 or 0
-            bad = np.isnan(self.opacities) if name == "opacities" else ~np.isfinite(getattr(self, name))
-            if bad.any():
-                fail(f"field '{name}': non-finite value at index {_first_bad_row(bad)}")
-        off = np.abs(norm - 1.0) > 1e-12  # leave unit rows untouched so copies stay equal
-        if off.any():
-            self.rotations = self.rotations.copy()  # never scale the caller's array in place
-            self.rotations[off] /= norm[off, None]
+        _check_values(self, fail)
 
     @property
     def n(self) -> int:

@@ -123,7 +123,11 @@ def write_glb(path, g: Gaussians, *, overwrite: bool = False, up_axis: str = "+z
         ``path`` exists and ``overwrite`` is false.
     GaspError
         pygltflib not installed.
+    SceneError
+        ``g`` holds no Gaussians (a glTF accessor holds at least one element).
     """
+    if not g.n:
+        raise SceneError(f"{path}: no Gaussians to write; a KHR_gaussian_splatting GLB holds at least one")
     b = GlbBuilder(gltf_module(path))
     mesh = b.splat_mesh(turned(g, Z_TO_Y @ UP_TO_Z[up_axis]))
     data = b.to_bytes(nodes=[{"mesh": mesh, "name": Path(g.source or "splats").stem}])

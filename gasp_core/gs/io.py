@@ -249,6 +249,9 @@ def write_gaussians(path, g: Gaussians, *, overwrite: bool = False, layout: str 
         If ``path`` exists and ``overwrite`` is False; the message names the path.
     ValueError
         If ``layout`` is not ``"3dgs"`` or ``"2dgs"``.
+    SceneError
+        ``g`` holds what a :class:`Gaussians` refuses (its arrays changed after it was built: a NaN, a zero
+        quaternion; :meth:`Gaussians.check`), named with ``path``; nothing is written.
 
     Notes
     -----
@@ -263,6 +266,7 @@ def write_gaussians(path, g: Gaussians, *, overwrite: bool = False, layout: str 
     path = Path(path)
     if path.exists() and not overwrite:
         raise FileExistsError(f"{path}: file exists; pass overwrite=True to replace it")
+    g.check(str(path))
     n = g.n
     f4 = "<f4"
     cols = _ply_columns(g, layout)

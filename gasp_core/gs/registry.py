@@ -318,8 +318,13 @@ def write(path, g, name: str, *, overwrite: bool = False, **options) -> Path:
     GaspError
         Unknown format, one without a per-frame writer (``usd``: :mod:`gasp_core.run.usd_export`), or its
         library missing.
+    SceneError
+        ``g`` holds what a :class:`~gasp_core.gs.gaussians.Gaussians` refuses (its arrays changed after it was
+        built: a NaN, a zero quaternion; :meth:`~gasp_core.gs.gaussians.Gaussians.check`), or what the format
+        cannot hold (the writer's own check: no Gaussians, an ``spz`` coordinate past +-2048); named with ``path``.
     """
     fmt = check_writer(name, f"writing {path}")
+    g.check(str(path))
     if not fmt.writer:
         raise GaspError(f"--format {name} writes a whole run into one file, not one file per frame")
     kw = {k: v for k, v in options.items() if k in fmt.options and v is not None}

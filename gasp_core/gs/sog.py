@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from gasp_core.fsutil import atomic_write
+from gasp_core.errors import SceneError
 from gasp_core.gs.gaussians import Gaussians
 
 _SH_CACHE: dict = {}
@@ -160,6 +161,8 @@ def write_sog(path, g: Gaussians, *, overwrite: bool = False) -> Path:
         ``path`` exists and ``overwrite`` is false.
     ImportError
         Without Pillow (``pip install -e ".[formats]"``).
+    SceneError
+        ``g`` holds no Gaussians (a SOG's bounds and codebooks need one).
 
     Notes
     -----
@@ -168,6 +171,8 @@ def write_sog(path, g: Gaussians, *, overwrite: bool = False) -> Path:
     component. A zero scale (``log = -inf``) is stored as ``exp(-30)``.
     """
     n = g.n
+    if not n:
+        raise SceneError(f"{path}: no Gaussians to write; a .sog file holds at least one")
     w = max(4, math.ceil(math.sqrt(n) / 4) * 4)
     h = max(4, math.ceil(n / w / 4) * 4)
     files: dict[str, bytes] = {}

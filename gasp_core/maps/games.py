@@ -136,6 +136,11 @@ def gaussians_to_triangles(means: np.ndarray, rotmats: np.ndarray, scales: np.nd
     triangles : ndarray, shape (n, 3, 3), float64
         ``triangles[:, k]`` is vertex v_{k+1}: ``v1 = m``, ``v2 = m + s2 r2``, ``v3 = m + s3 r3``.
 
+    Raises
+    ------
+    ValueError
+        If the shapes are not (n, 3), (n, 3, 3) and (n, 3) for one ``n`` (nothing is broadcast).
+
     Notes
     -----
     GASP paper Sec. 3 (GaMeS parametrisation).
@@ -143,6 +148,10 @@ def gaussians_to_triangles(means: np.ndarray, rotmats: np.ndarray, scales: np.nd
     means = np.asarray(means, dtype=np.float64)
     rotmats = np.asarray(rotmats, dtype=np.float64)
     scales = np.asarray(scales, dtype=np.float64)
+    n = len(means) if means.ndim else -1
+    if means.shape != (n, 3) or rotmats.shape != (n, 3, 3) or scales.shape != (n, 3):
+        raise ValueError(f"gaussians_to_triangles: expected means (n, 3), rotmats (n, 3, 3) and scales (n, 3), got "
+                         f"{means.shape}, {rotmats.shape}, {scales.shape}")
     tri = np.empty((len(means), 3, 3))
     tri[:, 0] = means
     tri[:, 1] = means + scales[:, 1:2] * rotmats[:, :, 1]

@@ -80,7 +80,7 @@ def check_core_fraction(core_fraction: float, n: int, where: str = "core_fractio
     Raises
     ------
     SceneError
-        One line naming ``where``: not a number in (0, 1], or fewer than one core.
+        One line naming ``where``: not a number in (0, 1], no Gaussians (``n = 0``), or fewer than one core.
     """
     try:
         f = float(core_fraction)
@@ -88,6 +88,8 @@ def check_core_fraction(core_fraction: float, n: int, where: str = "core_fractio
         raise SceneError(f"{where} = {core_fraction!r} must be a number in (0, 1]") from None
     if not 0.0 < f <= 1.0:
         raise SceneError(f"{where} = {core_fraction!r} must be in (0, 1]")
+    if n < 1:
+        raise SceneError(f"{where}: no Gaussians to build cores from; expected at least one")
     k = int(round(f * n))
     if k < 1:
         raise SceneError(f"{where} = {core_fraction!r} gives {f * n:.3g} cores for {n} Gaussians; "
@@ -165,15 +167,18 @@ def build_hierarchy(means: np.ndarray, triangles: np.ndarray, core_fraction: flo
     Raises
     ------
     SceneError
-        If ``core_fraction`` is not in (0, 1] or gives fewer than one core.
+        If ``core_fraction`` is not in (0, 1] or gives fewer than one core, or there are no Gaussians.
     ValueError
-        If the shapes disagree.
+        If the shapes disagree, or a mean is not finite (naming the first).
     """
     means = np.asarray(means, dtype=np.float64)
     tri = np.asarray(triangles, dtype=np.float64)
     n = len(means)
     if tri.shape != (n, 3, 3):
         raise ValueError(f"build_hierarchy: triangles must be ({n}, 3, 3), got {tri.shape}")
+    bad = ~np.isfinite(means).all(axis=1) if means.ndim == 2 else np.zeros(0, bool)
+    if bad.any():
+        raise ValueError(f"build_hierarchy: means: non-finite mean at index {int(np.flatnonzero(bad)[0])}")
     k = check_core_fraction(core_fraction, n, name)
     labels = grid_clusters(means, k)
     k = int(labels.max()) + 1

@@ -8,6 +8,7 @@ Gaussians' triangle vertices (the surface map, :class:`gasp_core.maps.surface.Me
 from __future__ import annotations
 
 import dataclasses
+import re
 import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -41,7 +42,8 @@ def read_mesh(path: Path):
     Raises
     ------
     SceneError
-        trimesh missing, a file it cannot read, or one with no faces, non-finite vertices, a vertex beyond
+        trimesh missing, a file it cannot read, or one with no faces, a face naming a vertex the file does not
+        have, an ASCII PLY whose header counts other rows than it holds, non-finite vertices, a vertex beyond
         :data:`gasp_core.scene.values.MAX_COORD` from the origin, or only degenerate faces (zero area).
     """
     from gasp_core.scene.values import MAX_COORD
@@ -49,6 +51,7 @@ def read_mesh(path: Path):
         import trimesh
     except ImportError:
         raise SceneError(f"{path}: mesh mode needs trimesh ({extra_hint('mesh')})") from None
+    _check_ascii_ply_rows(path)
     try:
         mesh = trimesh.load(path, force="mesh", process=False)
     except ImportError as e:   # trimesh needs Pillow for a mesh with texture coordinates
@@ -57,6 +60,12 @@ def read_mesh(path: Path):
         raise SceneError(f"{path}: cannot read the mesh ({type(e).__name__}: {e}); expected OBJ, PLY or STL") from None
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
         raise SceneError(f"{path}: no triangle faces in the mesh")
+    faces = np.asarray(mesh.faces)
+    wrong = (faces < 0) | (faces >= len(mesh.vertices))
+    if wrong.any():
+        i, j = np.argwhere(wrong)[0]
+        raise SceneError(f"{path}: face {i} names vertex {faces[i, j]}; the mesh has {len(mesh.vertices)} vertices "
+                         f"(expected indices 0..{len(mesh.vertices) - 1})")
     if not np.isfinite(mesh.vertices).all():
         raise SceneError(f"{path}: non-finite vertex coordinates in the mesh")
     far = np.abs(np.asarray(mesh.vertices)).max(axis=1) > MAX_COORD
@@ -71,6 +80,25 @@ def read_mesh(path: Path):
     uv, rgb = _corner_colours(mesh)
     mesh.merge_vertices(merge_tex=True, merge_norm=True)
     return mesh, uv, rgb
+
+
+def _check_ascii_ply_rows(path: Path) -> None:
+    """Refuse (:class:`SceneError`) an ASCII PLY whose header's element counts do not add up to its rows (one a line):
+    trimesh reads such a file as some other mesh (a face row taken for a vertex, faces left out) without a word."""
+    if path.suffix.lower() != ".ply":
+        return
+    with open(path, "rb") as f:
+        head = f.read(65536)
+    if not re.search(rb"^format\s+ascii", head, re.MULTILINE) or b"end_header" not in head:
+        return
+    counts = [int(c) for c in re.findall(rb"^element\s+\S+\s+(\d+)", head.split(b"end_header", 1)[0], re.MULTILINE)]
+    with open(path, "rb") as f:
+        f.seek(head.index(b"end_header"))
+        f.readline()
+        rows = sum(1 for line in f if line.strip())
+    if rows != sum(counts):
+        raise SceneError(f"{path}: an ASCII PLY whose header counts {sum(counts)} rows (elements {counts}) but whose "
+                         f"body holds {rows}; expected one row a line, as many as the header says")
 
 
 def _corner_colours(mesh) -> tuple[np.ndarray | None, np.ndarray | None]:

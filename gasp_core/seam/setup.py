@@ -16,6 +16,7 @@ from gasp_core.errors import SceneError
 from gasp_core.seam.schema import (BODY_MODELS, DEFAULT_MATERIAL, MATERIAL_KINDS, MATERIAL_PARAMS, MAX_FRICTION,
                                     RIGID_KINDS, STIFF_BRITTLE_E, in_range)
 from gasp_core.seam.cells import crack_band, grid_spacing
+from gasp_core.seam.setup_checks import broadcast, check_rows, vector
 
 #: Material models an engine may offer (capability names; :data:`gasp_core.seam.schema.MATERIAL_KINDS`).
 MATERIALS = frozenset(MATERIAL_KINDS)
@@ -279,6 +280,11 @@ class SimSetup:
         Wind (a surface drag law) and attractors (acceleration fields); features ``wind`` / ``attractors``.
     impulses : list of gasp_core.colliders.model.Impulse
         Velocity changes of a region over a time window; feature ``impulse``.
+
+    Raises
+    ------
+    SceneError
+        A field's shape, sign, range or a non-finite value, named (:mod:`gasp_core.seam.setup_checks`, and below).
     """
 
     x: np.ndarray
@@ -306,16 +312,16 @@ class SimSetup:
         n = len(self.x)
         if self.x.ndim != 2 or self.x.shape[1] != 3:
             raise SceneError(f"SimSetup.x: expected shape (n, 3), got {self.x.shape}")
-        self.v = np.ascontiguousarray(np.broadcast_to(self.v, (n, 3)), dtype=np.float64)
-        self.p_vol = np.ascontiguousarray(np.broadcast_to(self.p_vol, (n,)), dtype=np.float64)
-        self.body_id = np.ascontiguousarray(np.broadcast_to(self.body_id, (n,)), dtype=np.int32)
-        self.gravity = np.asarray(self.gravity, dtype=np.float64).reshape(3)
-        self.domain_lo = np.asarray(self.domain_lo, dtype=np.float64).reshape(3)
-        self.domain_hi = np.asarray(self.domain_hi, dtype=np.float64).reshape(3)
+        self.v = broadcast("v", self.v, (n, 3), np.float64)
+        self.p_vol = broadcast("p_vol", self.p_vol, (n,), np.float64)
+        self.body_id = broadcast("body_id", self.body_id, (n,), np.int32)
+        self.gravity, self.domain_lo, self.domain_hi = (vector(k, getattr(self, k))
+                                                        for k in ("gravity", "domain_lo", "domain_hi"))
         if self.n_render < 0:
             self.n_render = n
+        check_rows(self.body_id, n, self.n_render, self.boundaries)
         if self.C is not None:
-            self.C = np.ascontiguousarray(np.broadcast_to(self.C, (n, 3, 3)), dtype=np.float64)
+            self.C = broadcast("C", self.C, (n, 3, 3), np.float64)
         if not np.all(np.isfinite(self.x)):
             bad = int(np.flatnonzero(~np.isfinite(self.x).all(axis=1))[0])
             raise SceneError(f"SimSetup.x: non-finite position at point {bad}")
@@ -326,11 +332,11 @@ class SimSetup:
         if not np.all(np.isfinite(self.v)):
             raise SceneError("SimSetup.v: velocities must be finite")
         if self.passive is not None:
-            self.passive = np.ascontiguousarray(np.broadcast_to(self.passive, (n,)), dtype=bool)
+            self.passive = broadcast("passive", self.passive, (n,), bool)
             if not self.passive.any():
                 self.passive = None
         if self.faint is not None:
-            self.faint = np.ascontiguousarray(np.broadcast_to(self.faint, (n,)), dtype=bool)
+            self.faint = broadcast("faint", self.faint, (n,), bool)
             if self.faint[self.n_render:].any():
                 raise SceneError("SimSetup.faint: only rendered rows [:n_render] may be faint")
             self.faint = self.faint if self.faint.any() else None

@@ -1,0 +1,85 @@
+"""Checks of a :class:`~gasp_core.seam.setup.SimSetup`'s fields that an engine would otherwise meet first (and fail on
+as if it were the engine's bug): shapes, signs and finiteness of the arrays and of each :class:`Boundary`."""
+from __future__ import annotations
+
+import numpy as np
+
+from gasp_core.errors import SceneError
+
+
+def broadcast(name: str, value, shape: tuple[int, ...], dtype) -> np.ndarray:
+    """``value`` broadcast to ``shape`` as a contiguous array of ``dtype``.
+
+    Raises
+    ------
+    SceneError
+        ``value`` does not broadcast to ``shape``; the message names ``SimSetup.<name>`` and both shapes.
+    """
+    try:
+        return np.ascontiguousarray(np.broadcast_to(value, shape), dtype=dtype)
+    except (ValueError, TypeError):
+        got = np.shape(value) if not isinstance(value, (str, bytes)) else type(value).__name__
+        raise SceneError(f"SimSetup.{name}: got shape {got}; expected {shape} or a shape that broadcasts to it") \
+            from None
+
+
+def vector(name: str, value) -> np.ndarray:
+    """``value`` as a finite (3,) float64 vector.
+
+    Raises
+    ------
+    SceneError
+        Not three numbers, or one of them not finite; the message names ``SimSetup.<name>``.
+    """
+    try:
+        v = np.asarray(value, dtype=np.float64).reshape(3)
+    except (ValueError, TypeError):
+        raise SceneError(f"SimSetup.{name} = {value!r}; expected 3 numbers") from None
+    if not np.isfinite(v).all():
+        raise SceneError(f"SimSetup.{name} = {v.tolist()}; expected 3 finite numbers")
+    return v
+
+
+def check_rows(body_id: np.ndarray, n: int, n_render: int, boundaries=()) -> None:
+    """Refuse a negative ``body_id`` and an ``n_render`` outside ``[0, n]``, then :func:`check_boundaries`.
+
+    Raises
+    ------
+    SceneError
+        Naming the field, the value and (for ``body_id``) the first point.
+    """
+    neg = np.flatnonzero(body_id < 0)
+    if len(neg):
+        raise SceneError(f"SimSetup.body_id: {int(body_id[neg[0]])} at point {int(neg[0])}; expected an index "
+                         "into SimSetup.materials (>= 0)")
+    if not 0 <= n_render <= n:
+        raise SceneError(f"SimSetup.n_render = {n_render} with {n} points; expected 0..{n} (or -1: every point)")
+    check_boundaries(boundaries)
+
+
+def check_boundaries(boundaries) -> None:
+    """Every boundary's numbers finite: a ground's height, a friction >= 0, a restitution in [0, 1], a fixed box's
+    corners (``lo <= hi``).
+
+    Raises
+    ------
+    SceneError
+        Naming ``SimSetup.boundaries[i]``, its kind, the field and the value.
+    """
+    for i, b in enumerate(boundaries):
+        where = f"SimSetup.boundaries[{i}] ({getattr(b, 'kind', b)!r})"
+        checks = [("friction", b.friction, 0.0, np.inf), ("restitution", b.restitution, 0.0, 1.0)]
+        if b.kind == "ground" and not isinstance(b.height, str):
+            checks.append(("height", b.height, -np.inf, np.inf))
+        for key, val, lo, hi in checks:
+            try:
+                ok = bool(np.isfinite(float(val)) and lo <= float(val) <= hi)
+            except (TypeError, ValueError):
+                ok = False
+            if not ok:
+                raise SceneError(f"{where}.{key} = {val!r}; expected a finite number"
+                                 + ("" if (lo, hi) == (-np.inf, np.inf) else f" in [{lo:g}, {hi:g}]"))
+        if b.kind == "fixed_region":
+            lo_hi = [vector(f"boundaries[{i}].{key}", getattr(b, key)) for key in ("lo", "hi")]
+            if not np.all(lo_hi[0] <= lo_hi[1]):
+                raise SceneError(f"{where}: lo = {lo_hi[0].tolist()} exceeds hi = {lo_hi[1].tolist()} on an axis")
