@@ -317,7 +317,7 @@ class SimSetup:
         self.body_id = broadcast("body_id", self.body_id, (n,), np.int32)
         self.gravity, self.domain_lo, self.domain_hi = (vector(k, getattr(self, k))
                                                         for k in ("gravity", "domain_lo", "domain_hi"))
-        if self.n_render < 0:
+        if self.n_render < 0 or self.n_render > n:   # past the points (a subset made by dataclasses.replace): all
             self.n_render = n
         check_rows(self.body_id, n, self.n_render, self.boundaries)
         if self.C is not None:

@@ -41,7 +41,8 @@ def vector(name: str, value) -> np.ndarray:
 
 
 def check_rows(body_id: np.ndarray, n: int, n_render: int, boundaries=()) -> None:
-    """Refuse a negative ``body_id`` and an ``n_render`` outside ``[0, n]``, then :func:`check_boundaries`.
+    """Refuse a negative ``body_id`` and an ``n_render`` outside ``[0, n]`` (``SimSetup`` reads -1 or one past the
+    points as every point first), then :func:`check_boundaries`.
 
     Raises
     ------
