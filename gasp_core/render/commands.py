@@ -165,8 +165,29 @@ def check_port(port: int) -> None:
         raise SceneError(f"--port {port}: expected a TCP port from 0 to 65535 (0: the next free one)")
 
 
+def check_host(host: str) -> None:
+    """Refuse a ``--host`` this machine cannot listen on (``gasp view``, ``gasp studio``), before the server starts:
+    viser's server thread fails on it without a word and its constructor then waits forever (round 101b).
+
+    Raises
+    ------
+    SceneError
+        ``host`` does not resolve (``256.1.1.1``, ``bad host``) or is not an address of this machine.
+    """
+    import socket
+    try:
+        family, kind, proto, _, address = socket.getaddrinfo(host, 0, type=socket.SOCK_STREAM)[0]
+        with socket.socket(family, kind, proto) as probe:
+            probe.bind(address)
+    except (OSError, UnicodeError) as e:
+        raise SceneError(f"--host {host!r}: cannot listen there ({getattr(e, 'strerror', None) or e}); expected an "
+                         "address of this machine (127.0.0.1, the default; 0.0.0.0: every interface)") from None
+
+
 def cmd_view(args) -> int:
     check_port(args.port)
+    if args.export == "":
+        raise SceneError("--export '': expected the page's file name (or a folder, which gets index.html)")
     if args.export:
         from gasp_core.render.export import export_page
         from gasp_core.render.live import LIVE, locate
@@ -177,6 +198,7 @@ def cmd_view(args) -> int:
         record_written(out)  # a page written into a run folder: gasp's own, as gasp render's video (issue 68)
         print(f"wrote {out} ({out.stat().st_size / 1e6:.1f} MB; open it in a browser, no server needed)")
         return 0
+    check_host(args.host)
     from gasp_core.render.viewer import serve
     try:
         serve(args.run, host=args.host, port=args.port, framing=args.camera)
