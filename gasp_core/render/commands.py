@@ -104,6 +104,9 @@ def _camera_path(args, run_dirs, size):
     if args.camera_path is not None:
         return paths.keyframe_path(args.camera_path)
     if args.camera_index is None:
+        if args.cameras is not None:   # it was ignored without a word: the default camera rendered
+            raise SceneError(f"--cameras {args.cameras}: names the cameras.json for --camera-index; "
+                             "give --camera-index N too")
         return None
     from gasp_core.render.run import load_run
     obj = load_run(run_dirs[0]).objects[0]
@@ -133,6 +136,8 @@ def cmd_render(args) -> int:
     w, h = size or (640, 480)
     if args.camera_index is not None:               # the capture camera's own size unless --resolution
         w, h = path(None, None, 1)[0].width, path(None, None, 1)[0].height
+    if args.output == "":   # read as "not given", it wrote RUN/render.mp4
+        raise SceneError("-o '': expected the video's file name (.mp4, .gif) or a folder for PNG frames")
     output = args.output or default_output(args.runs)
     if w * h * len(args.runs) > MAX_PIXELS:
         raise SceneError(f"--camera-index {args.camera_index}: the camera's {w}x{h} px exceed {MAX_PIXELS:,} pixels "
