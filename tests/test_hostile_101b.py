@@ -14,7 +14,12 @@
    temporary file; it now names the output and its folder;
 6. ``gasp compare --scheduler bogus:::1`` was "a bug in gasp" (exit 1); it is one line naming ``--scheduler``;
 7. a ``--camera-path`` keyframe at ``"frame": true``, ``0.5`` or ``-3`` was rendered as frame 1, between frames or
-   before the video; it is refused naming the file, the keyframe and the value.
+   before the video; it is refused naming the file, the keyframe and the value;
+8. ``gasp conform ENGINE --scenes ""`` ran every conformance scene (the empty list read as "not given");
+9. ``gasp render --cameras FILE`` without ``--camera-index`` was ignored (the default camera rendered), and
+   ``gasp render -o ''`` wrote ``RUN/render.mp4``; both are refused naming the option;
+10. a scene saved with a UTF-8 byte-order mark (Notepad) was "not valid TOML: Invalid statement (at line 1,
+    column 1)"; the mark is now skipped.
 
 Each case takes a second or two (the ``--scheduler`` one a few, for Dask's import).
 """
@@ -221,3 +226,34 @@ def test_a_whole_keyframe_frame_still_reads(tmp_path):
     path.write_text(json.dumps({"keyframes": [{"frame": 0, "position": [1, 1, 1], "look_at": [0, 0, 0]},
                                               {"frame": 4.0, "position": [2, 1, 1], "look_at": [0, 0, 0]}]}))
     assert len(keyframe_path(path)(np.zeros(3), np.ones(3), 5, 32, 24, 40.0)) == 5
+
+
+# ------------------------------------------------------------------ 8-10. an empty or ignored option, a BOM
+
+def test_conform_with_scenes_naming_none_is_refused_not_run_whole(capsys, monkeypatch):
+    import gasp_core.testing.scenes as scenes
+    monkeypatch.setattr(scenes, "check_engine", never_serve)
+    for value in ("", ", ,"):
+        code = main(["conform", "taichi_mpm", "--scenes", value])
+        one_error(capsys.readouterr().err, code, f"--scenes: expected comma-separated conformance scene names, "
+                                                 f"got {value!r}")
+
+
+def test_render_refuses_cameras_without_an_index_and_an_empty_output(tmp_path, donut_small, capsys):
+    run = mini_run(tmp_path, donut_small)
+    cams = tmp_path / "cameras.json"
+    cams.write_text("[]")
+    code = main(["render", str(run), "-o", str(tmp_path / "v.gif"), "--cameras", str(cams), "-q"])
+    one_error(capsys.readouterr().err, code, "--cameras", "--camera-index N")
+    code = main(["render", str(run), "-o", "", "-q"])
+    one_error(capsys.readouterr().err, code, "-o ''")
+    assert not (tmp_path / "v.gif").exists() and not (run / "render.mp4").exists()
+
+
+def test_a_scene_saved_with_a_utf8_bom_reads_as_without(tmp_path, donut_small):
+    from gasp_core.scene.spec import load_scene
+    text = scene_text(donut_small, n_frames=1, n_grid=16)
+    (tmp_path / "bom.toml").write_bytes(b"\xef\xbb\xbf" + text.encode())
+    (tmp_path / "plain.toml").write_text(text)
+    bom, plain = load_scene(tmp_path / "bom.toml"), load_scene(tmp_path / "plain.toml")
+    assert (bom.n_frames, bom.frame_dt, len(bom.objects)) == (plain.n_frames, plain.frame_dt, len(plain.objects))
