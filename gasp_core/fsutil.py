@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import json
 import os
-import re
 import secrets
 import shutil
 import tempfile
@@ -27,6 +26,7 @@ from contextlib import contextmanager
 from typing import Callable, Iterable, Iterator
 
 from gasp_core.errors import GaspError
+from gasp_core.fsnames import alive, check_folder, check_output_name, is_within, temp_prefix
 from gasp_core.fsmarker import CLAIM, MARKER, NO_LIST, foreign_entries, unexpected_entries, write_marker
 
 PARTIAL_INFIX = ".partial-"
@@ -62,13 +62,16 @@ def atomic_write(path: str | os.PathLike, write: Callable, *, binary: bool = Tru
     ------
     FileExistsError
         ``path`` exists and ``overwrite`` is False.
+    FileNotFoundError
+        The folder of ``path`` does not exist (the message names ``path`` and the folder, not a temporary file).
     OSError
         From the filesystem (disk full, permission); the temporary file is removed.
     """
     path = Path(path)
     if not overwrite and path.exists():
         raise FileExistsError(f"{path}: file exists; pass overwrite=True to replace it")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    check_folder(path)
+    fd, tmp = tempfile.mkstemp(prefix=temp_prefix(path.name), suffix=".tmp", dir=path.parent)
     try:
         os.fchmod(fd, 0o666 & ~_umask())
         with os.fdopen(fd, "wb" if binary else "w") as f:
@@ -108,7 +111,7 @@ def leftover_partials(outdir: Path) -> list[Path]:
             pid = int((p / ".gasp-pid").read_text())
         except (OSError, ValueError):
             pid = -1
-        if pid > 0 and _alive(pid):
+        if pid > 0 and alive(pid):
             continue
         out.append(p)
     return out
@@ -142,25 +145,6 @@ def _check_parent(outdir: Path) -> None:
             if not parent.is_dir():
                 raise GaspError(f"cannot create output folder '{outdir}': '{parent}' is not a folder")
             return
-
-
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
-
-
-def _is_within(a: Path, b: Path) -> bool:
-    """True if ``a`` is ``b`` or lies inside it."""
-    try:
-        a.relative_to(b)
-        return True
-    except ValueError:
-        return False
 
 
 class OutputClaim:
@@ -197,7 +181,7 @@ class OutputClaim:
         out = self.outdir.resolve()
         for p in [Path.cwd(), *map(Path, protected)]:
             p = p.resolve()
-            if _is_within(p, out):
+            if is_within(p, out):
                 what = "the working directory" if p == Path.cwd().resolve() else f"'{p}'"
                 raise GaspError(f"output folder '{self.outdir}' is, contains or lies above {what}; "
                                 f"choose a new folder for the results")
@@ -206,6 +190,7 @@ class OutputClaim:
         if self.outdir.exists() and not self.outdir.is_dir():
             raise GaspError(f"output '{self.outdir}' exists and is not a folder; choose a folder name")
         _check_parent(self.outdir)
+        check_output_name(self.outdir)
         try:
             self.outdir.parent.mkdir(parents=True, exist_ok=True)
             os.mkdir(self.outdir)
@@ -263,7 +248,7 @@ class OutputClaim:
             pid = int(words[1])
         except (OSError, IndexError, ValueError):
             return 0
-        return pid if STOPPED in words[2:] or not _alive(pid) else 0
+        return pid if STOPPED in words[2:] or not alive(pid) else 0
 
     def _take_over_stale_claim(self) -> bool:
         """For ``--resume``: take the claim of a killed run (True), or leave a live one alone (False)."""
@@ -383,11 +368,14 @@ def atomic_path(path: str | os.PathLike, overwrite: bool = False) -> Iterator[Pa
     ------
     FileExistsError
         ``path`` exists and ``overwrite`` is False.
+    FileNotFoundError
+        The folder of ``path`` does not exist (naming ``path`` and the folder).
     """
     path = Path(path)
     if not overwrite and path.exists():
         raise FileExistsError(f"{path}: file exists; pass --overwrite to replace it")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
+    check_folder(path)
+    fd, tmp = tempfile.mkstemp(prefix=temp_prefix(path.stem), suffix=path.suffix, dir=path.parent)
     os.fchmod(fd, 0o666 & ~_umask())
     os.close(fd)
     try:

@@ -231,6 +231,11 @@ class Runner:
         Seconds to start the local cluster (or connect) and see its workers.
     isolated : bool
         False once a worker could not be restarted between runs.
+
+    Raises
+    ------
+    GaspError
+        ``workers`` or ``timeout_s`` out of range; on entry, a ``scheduler`` not an address or not reached.
     """
 
     scheduler: str | None = None
@@ -255,8 +260,9 @@ class Runner:
         if self.scheduler:
             try:
                 self._client = Client(self.scheduler, timeout=CONNECT_TIMEOUT)
-            except OSError as e:
-                raise GaspError(f"--scheduler {self.scheduler}: cannot connect ({e})") from None
+            except (OSError, ValueError, TypeError) as e:   # the last two: an address distributed cannot parse
+                what = "cannot connect" if isinstance(e, OSError) else "not an address such as tcp://HOST:8786"
+                raise GaspError(f"--scheduler {self.scheduler}: {what} ({e})") from None
             self._client.wait_for_workers(1, timeout=60)
         else:
             n = max(1, min(self.workers, os.cpu_count() or 1))

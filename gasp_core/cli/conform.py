@@ -2,7 +2,7 @@
 
 Exit status 0 when every scene passed, was skipped for a missing capability or failed as a declared
 known failure; 1 otherwise (a failure, an ``EngineBug``, or a known failure that passed). An unknown
-engine or scene is a user error (exit 2, through :func:`gasp_core.cli.main.main`).
+engine or scene, or a ``--scenes`` naming none, is a user error (exit 2, through :func:`gasp_core.cli.main.main`).
 """
 from __future__ import annotations
 
@@ -21,8 +21,12 @@ def add_parser(sub) -> None:
 
 def conform_command(args) -> int:
     """Run :func:`gasp_core.testing.check_engine` and print a table (or JSON); see the module doc."""
+    from gasp_core.errors import SceneError
     from gasp_core.testing.scenes import check_engine
-    scenes = [s.strip() for s in args.scenes.split(",") if s.strip()] if args.scenes else None
+    scenes = None if args.scenes is None else [s.strip() for s in args.scenes.split(",") if s.strip()]
+    if scenes == []:   # --scenes "" (an empty shell variable) ran every scene: leave the option out for that
+        raise SceneError(f"--scenes: expected comma-separated conformance scene names, got {args.scenes!r}; leave it "
+                         "out to run every scene")
     report = check_engine(args.engine, scenes=scenes, include_slow=args.slow)
     if args.json:
         print(json.dumps({"engine": report.engine, "ok": report.ok, "counts": report.counts(),

@@ -104,6 +104,9 @@ def _camera_path(args, run_dirs, size):
     if args.camera_path is not None:
         return paths.keyframe_path(args.camera_path)
     if args.camera_index is None:
+        if args.cameras is not None:   # it was ignored without a word: the default camera rendered
+            raise SceneError(f"--cameras {args.cameras}: names the cameras.json for --camera-index; "
+                             "give --camera-index N too")
         return None
     from gasp_core.render.run import load_run
     obj = load_run(run_dirs[0]).objects[0]
@@ -133,6 +136,8 @@ def cmd_render(args) -> int:
     w, h = size or (640, 480)
     if args.camera_index is not None:               # the capture camera's own size unless --resolution
         w, h = path(None, None, 1)[0].width, path(None, None, 1)[0].height
+    if args.output == "":   # read as "not given", it wrote RUN/render.mp4
+        raise SceneError("-o '': expected the video's file name (.mp4, .gif) or a folder for PNG frames")
     output = args.output or default_output(args.runs)
     if w * h * len(args.runs) > MAX_PIXELS:
         raise SceneError(f"--camera-index {args.camera_index}: the camera's {w}x{h} px exceed {MAX_PIXELS:,} pixels "
@@ -165,8 +170,29 @@ def check_port(port: int) -> None:
         raise SceneError(f"--port {port}: expected a TCP port from 0 to 65535 (0: the next free one)")
 
 
+def check_host(host: str) -> None:
+    """Refuse a ``--host`` this machine cannot listen on (``gasp view``, ``gasp studio``), before the server starts:
+    viser's server thread fails on it without a word and its constructor then waits forever (round 101b).
+
+    Raises
+    ------
+    SceneError
+        ``host`` does not resolve (``256.1.1.1``, ``bad host``) or is not an address of this machine.
+    """
+    import socket
+    try:
+        family, kind, proto, _, address = socket.getaddrinfo(host, 0, type=socket.SOCK_STREAM)[0]
+        with socket.socket(family, kind, proto) as probe:
+            probe.bind(address)
+    except (OSError, UnicodeError) as e:
+        raise SceneError(f"--host {host!r}: cannot listen there ({getattr(e, 'strerror', None) or e}); expected an "
+                         "address of this machine (127.0.0.1, the default; 0.0.0.0: every interface)") from None
+
+
 def cmd_view(args) -> int:
     check_port(args.port)
+    if args.export == "":
+        raise SceneError("--export '': expected the page's file name (or a folder, which gets index.html)")
     if args.export:
         from gasp_core.render.export import export_page
         from gasp_core.render.live import LIVE, locate
@@ -177,6 +203,7 @@ def cmd_view(args) -> int:
         record_written(out)  # a page written into a run folder: gasp's own, as gasp render's video (issue 68)
         print(f"wrote {out} ({out.stat().st_size / 1e6:.1f} MB; open it in a browser, no server needed)")
         return 0
+    check_host(args.host)
     from gasp_core.render.viewer import serve
     try:
         serve(args.run, host=args.host, port=args.port, framing=args.camera)

@@ -106,7 +106,7 @@ def keyframe_path(file):
     ------
     SceneError
         Unreadable file, no keyframes, or a keyframe without ``frame``, ``position`` or ``look_at``, with a
-        value that is not finite, or with ``position == look_at``; two keyframes at the same frame (naming the file,
+        value that is not finite, a ``frame`` that is not a whole number >= 0, or with ``position == look_at``; two keyframes at the same frame (naming the file,
         both keyframes and the frame).
     """
     file = Path(file)
@@ -120,6 +120,11 @@ def keyframe_path(file):
                          f"({e!r})") from None
     if not len(keys):
         raise SceneError(f"{file}: no keyframes")
+    for k, key in enumerate(keys):   # true (read as 1), 2.5 or -3 would move the camera where no frame is said
+        f = key["frame"]
+        if isinstance(f, bool) or not isinstance(f, (int, float)) or not (f >= 0 and float(f).is_integer()):
+            raise SceneError(f"{file}: keyframe {k}: frame = {json.dumps(f)}; expected a frame number of the video, "
+                             "a whole number >= 0")
     for k, (f, p, q) in enumerate(zip(frames, pos, look)):
         if not (np.isfinite(f) and np.isfinite(p).all() and np.isfinite(q).all()):
             raise SceneError(f"{file}: keyframe {k}: frame, position and look_at must be finite numbers, got "

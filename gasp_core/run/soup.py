@@ -198,6 +198,27 @@ def _frame_key(p: Path):
     return (int(m.group(1)) if m else -1, p.name)
 
 
+def _frame_numbers(files: list[Path], where: Path) -> list[int]:
+    """The frame number ending each file's stem (``files`` sorted by :func:`_frame_key`).
+
+    Raises
+    ------
+    SceneError
+        Of two or more files, one whose stem ends in no number, or two with the same number (``frame_1.obj`` and
+        ``frame_01.obj``, ``frame_3.obj`` and ``frame_3.ply``): their order would be a guess.
+    """
+    numbers = [_frame_key(p)[0] for p in files]
+    if len(files) > 1 and numbers[0] < 0:
+        raise SceneError(f"{files[0]}: the file name ends in no frame number; each frame file in {where} is ordered "
+                         "by the number ending its name (frame_0000.obj, frame_0001.obj, ...)")
+    same = [i for i in range(1, len(files)) if numbers[i] == numbers[i - 1]]
+    if same:
+        a, b = files[same[0] - 1], files[same[0]]
+        raise SceneError(f"{where}: '{a.name}' and '{b.name}' are both frame {numbers[same[0]]}; expected one file "
+                         "per frame number")
+    return numbers
+
+
 def motion_files(motion_dir: str | Path, names: list[str]) -> dict[str, list[Path]] | list[Path]:
     """The frame files of a motion folder, in frame order.
 
@@ -212,7 +233,8 @@ def motion_files(motion_dir: str | Path, names: list[str]) -> dict[str, list[Pat
     Raises
     ------
     SceneError
-        No frame files, or per-object folders with different frame counts.
+        No frame files; per-object folders with different frame counts or frame numbers; of two or more files, one
+        whose name ends in no number, or two with the same number (:func:`_frame_numbers`).
     """
     motion_dir = Path(motion_dir)
     if not motion_dir.is_dir():
@@ -228,11 +250,19 @@ def motion_files(motion_dir: str | Path, names: list[str]) -> dict[str, list[Pat
         if len(set(counts.values())) != 1 or not next(iter(counts.values())):
             raise SceneError(f"{motion_dir}: per-object folders must hold the same, non-zero number of "
                              f"frame files ({', '.join(MESH_SUFFIXES)}); found {counts}")
+        numbers = {n: _frame_numbers(v, motion_dir / n) for n, v in per.items()}
+        first = names[0]
+        for n in names[1:]:
+            if len(per[first]) > 1 and numbers[n] != numbers[first]:
+                k = next(i for i, (a, b) in enumerate(zip(numbers[first], numbers[n])) if a != b)
+                raise SceneError(f"{motion_dir}: frame {k} is '{per[first][k].name}' for '{first}' but "
+                                 f"'{per[n][k].name}' for '{n}'; per-object folders must number the same frames")
         return per
     flat = files_in(motion_dir)
     if not flat:
         raise SceneError(f"{motion_dir}: no frame files ({', '.join(MESH_SUFFIXES)}) and no per-object "
                          f"folders {names}")
+    _frame_numbers(flat, motion_dir)
     return flat
 
 

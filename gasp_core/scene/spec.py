@@ -347,7 +347,7 @@ def load_scene(path: str | Path, quality: str | None = None) -> Scene:
     if src.exists() and not src.is_file():   # a FIFO or a device (/dev/zero): reading could hang or never end
         raise SceneError(f"{src}: is not a regular file (a pipe, device or socket); expected a scene file (TOML)")
     try:
-        data = tomllib.loads(src.read_bytes().decode("utf-8"))
+        data = tomllib.loads(src.read_bytes().decode("utf-8-sig"))   # a BOM (Notepad) is no TOML error
     except FileNotFoundError:
         raise SceneError(f"{src}: scene file not found") from None
     except UnicodeDecodeError as e:

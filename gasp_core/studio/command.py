@@ -26,8 +26,9 @@ def add_parser(sub) -> None:
 
 
 def cmd_studio(args) -> int:
-    from gasp_core.render.commands import check_port
+    from gasp_core.render.commands import check_host, check_port
     check_port(args.port)
+    check_host(args.host)
     if not args.input.exists():
         raise SceneError(f"{args.input}: no such file; expected a Gaussian Splatting file or a scene .toml")
     workdir = args.workdir or Path("studio") / args.input.stem
