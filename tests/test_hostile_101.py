@@ -25,6 +25,8 @@ from gasp_core.errors import SceneError
 from gasp_core.fsutil import atomic_json
 from gasp_core.gs.io import read_gaussians, write_gaussians
 
+ROOT = Path(__file__).resolve().parents[1]
+
 DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
 
 
@@ -231,3 +233,16 @@ def test_a_cut_on_the_next_frame_still_renders(tmp_path):
     cams = keyframe_path(_path(tmp_path, [0, 3, 4, 8]))(np.zeros(3), np.ones(3), 9, 64, 48, 40.0)
     np.testing.assert_allclose(cams[3].position, [2, 1, 1])
     np.testing.assert_allclose(cams[4].position, [2, 2, 1])
+
+
+# ------------------------------------------------------------------ round 101 (lead): gasp info --n-grid's range
+
+
+@pytest.mark.parametrize("value", ["100000", "7", "abc"])
+def test_info_n_grid_outside_the_scenes_range_is_refused_naming_the_option(capsys, value):
+    """Before, ``--n-grid 100000`` went on to a fill grid of 159589 x 159006 x 105276 and was refused for that, naming
+    neither the option nor its range."""
+    with pytest.raises(SystemExit) as done:   # argparse's type error: one line, exit 2 (GaspArgumentParser)
+        main(["info", str(ROOT / "examples" / "data" / "donut_v3dg.ply"), "--n-grid", value])
+    line = one_error(capsys.readouterr().err, done.value.code)
+    assert "--n-grid" in line and "[8, 1024]" in line and repr(value) in line, line

@@ -29,6 +29,27 @@ def positive_int(text: str) -> int:
     return value
 
 
+def grid_size(text: str) -> int:
+    """argparse type: a grid's ``n_grid``, an integer in the scene's range
+    (:data:`gasp_core.scene.values.N_GRID_RANGE`, 8-1024; ``gasp info --n-grid``).
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        For text that is not an integer or one outside the range; the message quotes it and names the range.
+    """
+    from gasp_core.scene.values import N_GRID_RANGE
+    lo, hi = N_GRID_RANGE
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer in [{lo}, {hi}], got {text!r}") from None
+    if not lo <= value <= hi:
+        raise argparse.ArgumentTypeError(f"expected an integer in [{lo}, {hi}] (as a scene's domain.n_grid), "
+                                         f"got {text!r}")
+    return value
+
+
 def positive_float(text: str) -> float:
     """argparse type: a finite number > 0 (``--rho``).
 

@@ -29,7 +29,7 @@ from pathlib import Path
 import warnings
 
 from gasp_core.cli import early, streams
-from gasp_core.cli.args import GaspArgumentParser, add_export_parser, length, positive_float, positive_int
+from gasp_core.cli.args import GaspArgumentParser, add_export_parser, grid_size, length, positive_float, positive_int
 from gasp_core.cli.engines import cmd_engines
 from gasp_core.cli.place import add_place_parser
 from gasp_core.cli.simulate import add_simulate_parser, reporter_for
@@ -197,7 +197,7 @@ def build_parser() -> argparse.ArgumentParser:
     i.add_argument("--size", type=length, help="the object's real height along its up axis (1.7m, 170cm): "
                                                "prints the scale that gives it (default: none)")
     i.add_argument("--rho", type=positive_float, help="density, kg/m^3: prints the filled solid's mass (default: none)")
-    i.add_argument("--n-grid", type=positive_int, default=64, help="grid of the fill reported (default 64)")
+    i.add_argument("--n-grid", type=grid_size, default=64, help="grid of the fill reported (default 64)")
     i.add_argument("--up", choices=UP_AXES, help="the up axis, stated (write --up=-y for a minus): the height, "
                                                  "scale and stand figures along it (default: guessed; when unsure, "
                                                  "every axis listed)")
