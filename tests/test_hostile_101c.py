@@ -261,3 +261,25 @@ def test_the_map_t_refuses_rows_that_disagree():
     """Before: one rotation and one scale row were broadcast over two means."""
     with pytest.raises(ValueError, match=r"gaussians_to_triangles.*\(2, 3\).*\(1, 3, 3\)"):
         gaussians_to_triangles(np.zeros((2, 3)), np.eye(3)[None], np.ones((1, 3)))
+
+
+OBJ_TET = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 2 3 4\n"
+
+
+@needs_package("trimesh")
+@pytest.mark.parametrize("face", ["f 1 4 0", "f 1/1 4/2 0/3", "f 1//1 0//2 4//3"])
+def test_an_obj_face_naming_vertex_0_is_refused(tmp_path, face):
+    """Round 101 (lead): OBJ counts vertices from 1; a face naming 0 was read as some other vertex without a word."""
+    from gasp_core.prepare.mesh import read_mesh
+    path = tmp_path / "bad.obj"
+    path.write_text(OBJ_TET + face + "\n")
+    with pytest.raises(SceneError, match=r"bad\.obj: line 8: a face names vertex 0; OBJ counts vertices from 1"):
+        read_mesh(path)
+
+
+@needs_package("trimesh")
+def test_an_obj_of_1_based_and_negative_indices_still_reads(tmp_path):
+    from gasp_core.prepare.mesh import read_mesh
+    path = tmp_path / "good.obj"
+    path.write_text(OBJ_TET + "f -4 -1 -3\n")
+    assert len(read_mesh(path)[0].faces) == 4

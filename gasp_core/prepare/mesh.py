@@ -43,7 +43,7 @@ def read_mesh(path: Path):
     ------
     SceneError
         trimesh missing, a file it cannot read, or one with no faces, a face naming a vertex the file does not
-        have, an ASCII PLY whose header counts other rows than it holds, non-finite vertices, a vertex beyond
+        have (an OBJ's vertex 0 too), an ASCII PLY whose header counts other rows than it holds, non-finite vertices, a vertex beyond
         :data:`gasp_core.scene.values.MAX_COORD` from the origin, or only degenerate faces (zero area).
     """
     from gasp_core.scene.values import MAX_COORD
@@ -52,6 +52,7 @@ def read_mesh(path: Path):
     except ImportError:
         raise SceneError(f"{path}: mesh mode needs trimesh ({extra_hint('mesh')})") from None
     _check_ascii_ply_rows(path)
+    _check_obj_indices(path)
     try:
         mesh = trimesh.load(path, force="mesh", process=False)
     except ImportError as e:   # trimesh needs Pillow for a mesh with texture coordinates
@@ -80,6 +81,18 @@ def read_mesh(path: Path):
     uv, rgb = _corner_colours(mesh)
     mesh.merge_vertices(merge_tex=True, merge_norm=True)
     return mesh, uv, rgb
+
+
+def _check_obj_indices(path: Path) -> None:
+    """Refuse (:class:`SceneError`) an OBJ face that names vertex 0: OBJ counts its vertices from 1 (negative indices
+    count back from the last), so 0 names none, and trimesh read it as some other vertex without a word."""
+    if Path(path).suffix.lower() != ".obj":
+        return
+    with open(path, "rb") as f:
+        for n, line in enumerate(f, 1):
+            if line.startswith(b"f ") and any(tok.split(b"/")[0] in (b"0", b"-0", b"+0") for tok in line.split()[1:]):
+                raise SceneError(f"{path}: line {n}: a face names vertex 0; OBJ counts vertices from 1 (or back from "
+                                 "the last with -1), so 0 names none")
 
 
 def _check_ascii_ply_rows(path: Path) -> None:
