@@ -283,3 +283,21 @@ def test_an_obj_of_1_based_and_negative_indices_still_reads(tmp_path):
     path = tmp_path / "good.obj"
     path.write_text(OBJ_TET + "f -4 -1 -3\n")
     assert len(read_mesh(path)[0].faces) == 4
+
+
+@pytest.mark.parametrize("logit, warned", [(-20.0, True), (-np.inf, True), (-5.0, False)])
+def test_an_object_of_invisible_gaussians_is_warned_about(tmp_path, logit, warned):
+    """Round 101 (lead): a file whose every Gaussian is under 1/255 opacity simulated without a word, and every frame
+    rendered empty. It warns now, naming the file; one Gaussian at sigmoid(-5) = 0.0067 is visible, and is quiet."""
+    import warnings as w
+    from gasp_core.prepare.checks import check_object
+    from gasp_core.scene.spec import ObjectSpec
+    g = gaussians(3)
+    g.opacities[:] = logit
+    with w.catch_warnings(record=True) as got:
+        w.simplefilter("always")
+        check_object(ObjectSpec(file=tmp_path / "ghost.ply"), g)
+    said = [str(x.message) for x in got if "invisible" in str(x.message)]
+    assert bool(said) == warned, said
+    if warned:
+        assert "ghost.ply" in said[0] and "3 Gaussians" in said[0] and "1/255" in said[0], said

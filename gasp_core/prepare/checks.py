@@ -3,12 +3,28 @@ object (the values in the scene file itself are checked by :mod:`gasp_core.scene
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 
 from gasp_core.errors import SceneError
 from gasp_core.scene.spec import ObjectSpec
 from gasp_core.scene.values import MAX_COORD
+
+
+#: A Gaussian under this opacity (one step of an 8-bit channel) leaves no mark on a rendered frame.
+INVISIBLE = 1.0 / 255.0
+
+
+def warn_invisible(f, g) -> None:
+    """Warn (naming the file ``f``) when every one of ``g``'s Gaussians is under :data:`INVISIBLE` opacity
+    (``sigmoid`` of its logit): it simulates, but every frame renders empty (round 101: such a file ran without a
+    word). Not an error: an object may be a collider or a hidden proxy on purpose."""
+    from scipy.special import expit
+    alpha = float(expit(np.asarray(g.opacities, np.float64)).max())
+    if alpha < INVISIBLE:
+        warnings.warn(f"{f}: every one of its {g.n} Gaussians is invisible (opacity at most {alpha:.3g}, under 1/255):"
+                      " the frames will render nothing; is this the trained scene's file?", stacklevel=3)
 
 
 def check_object(spec: ObjectSpec, g) -> None:
@@ -34,6 +50,7 @@ def check_object(spec: ObjectSpec, g) -> None:
         raise SceneError(f"{f}: the file has 0 Gaussians; nothing to simulate")
     from gasp_core.gs.io import refuse_one_point
     refuse_one_point(f, g)
+    warn_invisible(f, g)
     x = g.means
     lo, hi = x.min(axis=0), x.max(axis=0)
     pos = max(abs(p) for p in spec.position)
