@@ -58,6 +58,7 @@ def strip_frames(n_frames: int, count: int = DEFAULT_STRIP_FRAMES) -> tuple[int,
         return ()
     if count == 1:
         return (int(n_frames),)
+    count = min(count, int(n_frames) + 1)   # more asks every frame: bounded by the run, not by the number given
     return tuple(sorted(set(np.linspace(0, n_frames, count).round().astype(int).tolist())))
 
 

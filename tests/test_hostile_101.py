@@ -246,3 +246,21 @@ def test_info_n_grid_outside_the_scenes_range_is_refused_naming_the_option(capsy
         main(["info", str(ROOT / "examples" / "data" / "donut_v3dg.ply"), "--n-grid", value])
     line = one_error(capsys.readouterr().err, done.value.code)
     assert "--n-grid" in line and "[8, 1024]" in line and repr(value) in line, line
+
+
+# ------------------------------------------------------------------ round 101 (lead): --strip-frames bounded by the run
+
+
+def test_strip_frames_past_the_run_take_every_frame_without_the_numbers_memory():
+    """Before, ``--strip-frames 100000000`` laid 1e8 evenly spaced frame numbers (0.8 GB, then 1e8 Python ints,
+    about 3 GB) to keep the run's 11; now more than the run's frames reads as every frame, as documented."""
+    import tracemalloc
+    from gasp_studies.strips import strip_frames
+    tracemalloc.start()
+    try:
+        assert strip_frames(10, 100_000_000) == tuple(range(11))
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 10_000_000, peak
+    assert strip_frames(10, 3) == (0, 5, 10) and strip_frames(10, 0) == () and strip_frames(10, 1) == (10,)
