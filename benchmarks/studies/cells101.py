@@ -33,6 +33,7 @@ from gasp_core.testing.scenes_pieces import SPEEDS, ball_setup
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import dfg100  # noqa: E402 (round 100's study beside this one)
+from fragments99 import lay_cells  # noqa: E402 (round 99's)
 
 
 def cube_setup(speed: float, n_grid: int, side: float):
@@ -68,18 +69,14 @@ def donut_setup(n_grid: int):
 
 def grady_cells(setup, speed: float) -> tuple[np.ndarray | None, dict]:
     """Each point's Grady cell (setup order, int; None where the landing does not break the ball) and the split, laid
-    as round 99's and 100's probes lay them (``gasp_core.run.fragments``: ``break_check``, ``split_body``)."""
-    m, vol = setup.materials[0], float(setup.p_vol.sum())
-    chk = fragments.break_check(m, float(setup.p_mass.sum()), vol, float(np.ptp(setup.x[:, 2])), speed)
-    if not chk["breaks"]:
-        return None, {"count": 0}
-    count = int(min(fragments.MAX_FRAGMENTS, max(2, round(vol / chk["size"] ** 3))))
-    spacing = float(np.cbrt(np.max(setup.p_vol)))
+    as round 99's and 100's probes lay them (``fragments99.lay_cells``), below the body's centre (the ball and the
+    cube at the grid's middle, the donut at its own)."""
     centre = [0.5, 0.5] if len(setup.x) and abs(float(np.mean(setup.x[:, 0])) - 0.5) < 0.05 else \
-        list(np.mean(setup.x[:, :2], axis=0))   # the ball and the cube at the grid's middle; the donut's centre
-    cell = fragments.split_body(setup.x, np.ones(len(setup.x), bool), spacing,
-                                np.array([*centre, setup.x[:, 2].min()]), count, chk["size"])
-    return cell, {"count": count, "cells": int(cell.max() + 1), "size_dx": round(chk["size"] / setup.dx, 2)}
+        list(np.mean(setup.x[:, :2], axis=0))
+    cell, count, size = lay_cells(setup, speed, centre=centre)
+    if cell is None:
+        return None, {"count": 0}
+    return cell, {"count": count, "cells": int(cell.max() + 1), "size_dx": round(size / setup.dx, 2)}
 
 
 class CellBall(dfg100.Ball):
@@ -189,17 +186,11 @@ def trace(speed: float, n_grid: int, side: str, gate: str, mu_c: float, d_min: f
     separable nodes, and the ball's lowest and highest points (m; the top wall holds the nodes from ``1 - 3 dx``)."""
     setup = ball_setup(speed, n_grid)
     cell, _ = grady_cells(setup, speed)
-    ball, rows = CellBall(setup, cell, side, gate, mu_c, d_min), []
-    ids = range(ball.cell.max() + 1)
+    ball = CellBall(setup, cell, side, gate, mu_c, d_min)
+    rows = []
     for fr in range(1, frames + 1):
         ball.step_frame()
-        _, sep, both = ball.fields(*dfg100.stencil(ball.x, 1 / ball.dx, ball.n)[:3])
-        cen = np.array([ball.x[ball.cell == c].mean(0) for c in ids])
-        vel = np.array([ball.v[ball.cell == c].mean(0) for c in ids])
-        rows.append({"frame": fr, "both": int(both.sum()), "separable": int(sep.sum()),
-                     "spread_m": round(float(np.linalg.norm(cen - cen.mean(0), axis=1).mean()), 4),
-                     "v_rel": round(float(np.linalg.norm(vel - vel.mean(0), axis=1).mean()), 3),
-                     "z_min": round(float(ball.x[:, 2].min()), 3), "z_max": round(float(ball.x[:, 2].max()), 3)})
+        rows.append(dfg100.motion_row(ball, ball.cell, fr))
     return rows
 
 

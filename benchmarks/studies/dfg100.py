@@ -275,26 +275,30 @@ def cell_trace(speed: float, n_grid: int, mu_c: float, d_min: float, frames: int
     """Grady's cells on the ball with DFG (``--cells 0``): every third frame, the nodes with both fields and the
     separable ones, the cells' mean distance from their common centre (m) and their mean speed relative to it (m/s),
     and the ball's lowest and highest points (m; the top wall holds the nodes from ``1 - 3 dx``)."""
-    from gasp_core.run import fragments
+    from fragments99 import lay_cells
     setup = ball_setup(speed, n_grid)
     jp, _ = inside_jp(setup, speed, 0.0)
-    m, vol = setup.materials[0], float(setup.p_vol.sum())
-    chk = fragments.break_check(m, float(setup.p_mass.sum()), vol, float(np.ptp(setup.x[:, 2])), speed)
-    count = int(min(fragments.MAX_FRAGMENTS, max(2, round(vol / chk["size"] ** 3))))
-    cell = fragments.split_body(setup.x, np.ones(len(setup.x), bool), float(np.cbrt(np.max(setup.p_vol))),
-                                np.array([0.5, 0.5, setup.x[:, 2].min()]), count, chk["size"])
+    cell = lay_cells(setup, speed)[0]
     ball, rows = Ball(setup, True, mu_c, d_min, jp < 0), []
     for fr in range(1, frames + 1):
         ball.step_frame()
         if fr % 3 == 0:
-            f, sep, both = ball.fields(*stencil(ball.x, 1 / ball.dx, ball.n)[:3])
-            cen = np.array([ball.x[cell == c].mean(0) for c in range(cell.max() + 1)])
-            vel = np.array([ball.v[cell == c].mean(0) for c in range(cell.max() + 1)])
-            rows.append({"frame": fr, "both": int(both.sum()), "separable": int(sep.sum()),
-                         "spread_m": round(float(np.linalg.norm(cen - cen.mean(0), axis=1).mean()), 4),
-                         "v_rel": round(float(np.linalg.norm(vel - vel.mean(0), axis=1).mean()), 3),
-                         "z_min": round(float(ball.x[:, 2].min()), 3), "z_max": round(float(ball.x[:, 2].max()), 3)})
+            rows.append(motion_row(ball, cell, fr))
     return rows
+
+
+def motion_row(ball: Ball, cell: np.ndarray, frame: int) -> dict:
+    """A traced frame of a ball laid in cells ``cell`` (per point, int): the nodes with both fields and the separable
+    ones, the cells' mean distance from their common centre (m) and their mean speed relative to it (m/s), and the
+    ball's lowest and highest points (m)."""
+    _, sep, both = ball.fields(*stencil(ball.x, 1 / ball.dx, ball.n)[:3])
+    ids = range(cell.max() + 1)
+    cen = np.array([ball.x[cell == c].mean(0) for c in ids])
+    vel = np.array([ball.v[cell == c].mean(0) for c in ids])
+    return {"frame": frame, "both": int(both.sum()), "separable": int(sep.sum()),
+            "spread_m": round(float(np.linalg.norm(cen - cen.mean(0), axis=1).mean()), 4),
+            "v_rel": round(float(np.linalg.norm(vel - vel.mean(0), axis=1).mean()), 3),
+            "z_min": round(float(ball.x[:, 2].min()), 3), "z_max": round(float(ball.x[:, 2].max()), 3)}
 
 
 def main() -> None:

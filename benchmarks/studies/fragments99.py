@@ -32,19 +32,31 @@ from gasp_core.run import fragments
 from gasp_core.testing.scenes_pieces import SPEEDS, ball_setup, counted_run
 
 
-def inside_jp(setup, speed: float, min_cells: float) -> tuple[np.ndarray | None, dict]:
-    """The probe's initial ``Jp`` (setup order; None where the landing does not break the ball) and its split."""
+def lay_cells(setup, speed: float, min_cells: float = 0.0, centre=(0.5, 0.5)):
+    """Grady's cells on the body of ``setup`` landing at ``speed`` m/s, as the stiff route lays them
+    (``gasp_core.run.fragments``: ``break_check``, ``split_body`` from the lowest point below ``centre`` (x, y), m):
+    ``(cell, count, size)``, each point's cell (setup order, int), the count asked and the size (m; none under
+    ``min_cells`` grid cells); ``(None, 0, size)`` where the landing does not break the body."""
     m = setup.materials[0]
     vol = float(setup.p_vol.sum())
     chk = fragments.break_check(m, float(setup.p_mass.sum()), vol, float(np.ptp(setup.x[:, 2])), speed)
     if not chk["breaks"]:
-        return None, {"count": 0}
+        return None, 0, chk["size"]
     size = max(chk["size"], min_cells * setup.dx)
     count = int(min(fragments.MAX_FRAGMENTS, max(2, round(vol / size ** 3))))
     spacing = float(np.cbrt(np.max(setup.p_vol)))
+    cell = fragments.split_body(setup.x, np.ones(len(setup.x), bool), spacing,
+                                np.array([*centre, setup.x[:, 2].min()]), count, size)
+    return cell, count, size
+
+
+def inside_jp(setup, speed: float, min_cells: float) -> tuple[np.ndarray | None, dict]:
+    """The probe's initial ``Jp`` (setup order; None where the landing does not break the ball) and its split."""
+    cell, count, _ = lay_cells(setup, speed, min_cells)
+    if cell is None:
+        return None, {"count": 0}
     every = np.ones(len(setup.x), bool)
-    cell = fragments.split_body(setup.x, every, spacing, np.array([0.5, 0.5, setup.x[:, 2].min()]), count, size)
-    cut = fragments.cut_damage(setup.x, cell, every, spacing)
+    cut = fragments.cut_damage(setup.x, cell, every, float(np.cbrt(np.max(setup.p_vol))))
     return np.where(cut > 0, 0.0, -1.0), {"count": count, "cells": int(cell.max() + 1),
                                           "breakable": round(float(np.mean(cut > 0)), 3)}
 
