@@ -25,8 +25,6 @@ from gasp_core.errors import SceneError
 from gasp_core.fsutil import atomic_json
 from gasp_core.gs.io import read_gaussians, write_gaussians
 
-ROOT = Path(__file__).resolve().parents[1]
-
 DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
 
 
@@ -243,7 +241,7 @@ def test_info_n_grid_outside_the_scenes_range_is_refused_naming_the_option(capsy
     """Before, ``--n-grid 100000`` went on to a fill grid of 159589 x 159006 x 105276 and was refused for that, naming
     neither the option nor its range."""
     with pytest.raises(SystemExit) as done:   # argparse's type error: one line, exit 2 (GaspArgumentParser)
-        main(["info", str(ROOT / "examples" / "data" / "donut_v3dg.ply"), "--n-grid", value])
+        main(["info", str(DATA / "donut_v3dg.ply"), "--n-grid", value])
     line = one_error(capsys.readouterr().err, done.value.code)
     assert "--n-grid" in line and "[8, 1024]" in line and repr(value) in line, line
 
