@@ -99,6 +99,8 @@ class PieceTracker:
         self._open = np.maximum(rest + (np.concatenate(reach) if reach else 0.0), 1.25 * rest)
         #: Per link, whether it has been cut (never undone), shape (n_links,), bool.
         self.cut = np.zeros(len(self.pairs), bool)
+        #: Per link, whether it joins two of Grady's cells (:meth:`split_cells`), shape (n_links,), bool.
+        self.cross = np.zeros(len(self.pairs), bool)
         self.linked = np.zeros(len(self.mass), bool)
         self.linked[self.pairs.ravel()] = True
         # the links both ways, sorted by their first point (a CSR graph's order): each labelling only masks them
@@ -126,6 +128,15 @@ class PieceTracker:
         self.cut |= b[self.pairs[:, 0]] != b[self.pairs[:, 1]]
         self._lab = None      # labelled again at the next call (kept in the checkpoint with the other cut links)
 
+    def split_cells(self, cells: np.ndarray) -> None:
+        """Grady's cells laid on a soft brittle body (``SimSetup.cells``, :mod:`gasp_core.run.grady_cells`): from now
+        on a link between two cells is cut once it opens past its gap, whatever its points' damage (the engines part
+        the cells at their faces without breaking every band point)."""
+        from gasp_core.run.grady_cells import decode
+        cell = decode(cells)[0]
+        a, b = cell[self.pairs[:, 0]], cell[self.pairs[:, 1]]
+        self.cross = (a >= 0) & (b >= 0) & (a != b)
+
     @staticmethod
     def _rest_pairs(x: np.ndarray, idx: np.ndarray, radius: float) -> np.ndarray:
         """Index pairs (k, 2), each once, of the points ``idx``: each point with its at most :data:`MAX_LINKS` nearest
@@ -143,11 +154,14 @@ class PieceTracker:
     def cut_links(self, x: np.ndarray, damage: np.ndarray | None) -> int:
         """Cut the links opened past their gap at positions ``x`` (n, 3), m, with a point broken (``damage`` (n,) in
         [0, 1], None: nothing broken); the number newly cut."""
-        if damage is None or not len(self.pairs):
+        if (damage is None and not self.cross.any()) or not len(self.pairs):
             return 0
-        d = np.asarray(damage, np.float64)
         a, b = self.pairs[:, 0], self.pairs[:, 1]
-        live = np.flatnonzero(~self.cut & (np.maximum(d[a], d[b]) >= BROKEN))
+        broken = self.cross.copy()
+        if damage is not None:
+            d = np.asarray(damage, np.float64)
+            broken |= np.maximum(d[a], d[b]) >= BROKEN
+        live = np.flatnonzero(~self.cut & broken)
         x = np.asarray(x, np.float64)
         opened = live[np.linalg.norm(x[a[live]] - x[b[live]], axis=1) > self._open[live]]
         self.cut[opened] = True
@@ -268,7 +282,10 @@ def tracker_for(setup) -> PieceTracker | None:
     ``brittle``, else None (nothing can break)."""
     if not any(m.name == "brittle" for m in setup.materials):
         return None
-    return PieceTracker(setup.x, setup.body_id, setup.p_mass, setup.p_vol, gap=setup.dx)
+    t = PieceTracker(setup.x, setup.body_id, setup.p_mass, setup.p_vol, gap=setup.dx)
+    if getattr(setup, "cells", None) is not None:
+        t.split_cells(setup.cells)
+    return t
 
 
 def frame_row(tracker: PieceTracker, reporter, frame: int, x: np.ndarray, damage: np.ndarray | None) -> dict:

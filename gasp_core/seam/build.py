@@ -92,9 +92,12 @@ def needs(materials: Iterable[str] = (), boundaries: Iterable = (), colliders: I
 
 
 def setup_needs(setup: SimSetup) -> dict[str, list[str]]:
-    """:func:`needs` of a setup (its materials, boundaries, colliders, forces and impulses)."""
-    return needs(setup.materials, setup.boundaries, setup.colliders, setup.forces,
-                 setup.impulses)
+    """:func:`needs` of a setup (its materials, boundaries, colliders, forces and impulses; its Grady's cells:
+    ``fracture_cells``)."""
+    out = needs(setup.materials, setup.boundaries, setup.colliders, setup.forces, setup.impulses)
+    if getattr(setup, "cells", None) is not None:
+        out["features"].append("fracture_cells")
+    return out
 
 
 def _factory(info: EngineInfo, setup: SimSetup) -> PointEngine:

@@ -56,6 +56,9 @@ FEATURES = {
     "attractors": "SimSetup.forces of kind 'attractor': acceleration towards a point with a falloff",
     "viscosity": "Material.viscosity > 0: the Kelvin-Voigt viscous stress sigma_v = 2 eta sym(grad v) added to "
                  "the elastic stress (docs/dissipation.md)",
+    "fracture_cells": "SimSetup.cells: Grady's cells on a soft brittle body (gasp_core.run.grady_cells): each node's "
+                      "cell of largest weight is one velocity field, the other cells the other; the fields part where "
+                      "each has a broken point, and a cell's inside never damages",
     "sleep": "set_asleep(asleep): asleep is an ndarray (n_bodies,) bool, one flag per body (SimSetup.body_id); "
              "from the next step_frame on, the points of a flagged body are left out of every transfer (no P2G, G2P, "
              "stress, contact moments: their x, v, F, C, Jp stay as they are) and a cleared flag resumes them with "

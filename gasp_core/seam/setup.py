@@ -16,7 +16,7 @@ from gasp_core.errors import SceneError
 from gasp_core.seam.schema import (BODY_MODELS, DEFAULT_MATERIAL, MATERIAL_KINDS, MATERIAL_PARAMS, MAX_FRICTION,
                                     RIGID_KINDS, STIFF_BRITTLE_E, in_range)
 from gasp_core.seam.cells import crack_band, grid_spacing
-from gasp_core.seam.setup_checks import broadcast, check_rows, vector
+from gasp_core.seam.setup_checks import broadcast, check_cells, check_passive, check_rows, vector
 
 #: Material models an engine may offer (capability names; :data:`gasp_core.seam.schema.MATERIAL_KINDS`).
 MATERIALS = frozenset(MATERIAL_KINDS)
@@ -280,6 +280,10 @@ class SimSetup:
         Wind (a surface drag law) and attractors (acceleration fields); features ``wind`` / ``attractors``.
     impulses : list of gasp_core.colliders.model.Impulse
         Velocity changes of a region over a time window; feature ``impulse``.
+    cells : ndarray, shape (n,), int32, or None
+        Grady's cells of a soft brittle body laid out at its landing (:mod:`gasp_core.run.grady_cells`): a band
+        point's cell (>= 0), ``-2 - cell`` for a cell's inside (it never damages), -1 for a point in no cell; feature
+        ``fracture_cells``. None: no cells.
 
     Raises
     ------
@@ -306,6 +310,7 @@ class SimSetup:
     colliders: list = field(default_factory=list)
     forces: list = field(default_factory=list)
     impulses: list = field(default_factory=list)
+    cells: np.ndarray | None = None
 
     def __post_init__(self):
         self.x = np.ascontiguousarray(self.x, dtype=np.float64)
@@ -343,18 +348,9 @@ class SimSetup:
         massless = np.zeros(n, bool) if self.passive is None else self.passive
         if np.any(self.p_vol[~massless] <= 0) or not np.all(np.isfinite(self.p_vol)):
             raise SceneError("SimSetup.p_vol: volumes must be positive and finite (0 only on passive rows)")
-        if self.passive is not None:
-            if np.any(self.p_vol[massless] != 0):
-                raise SceneError("SimSetup.p_vol: passive rows (SimSetup.passive) must have volume 0")
-            if self.passive[self.n_render:].any():
-                raise SceneError("SimSetup.passive: only rendered rows [:n_render] may be passive")
-            if self.passive.all():
-                raise SceneError("SimSetup.passive: every point is passive; the material needs points with volume")
-            has = np.bincount(self.body_id[~massless], minlength=len(self.materials)) > 0
-            used = np.bincount(self.body_id, minlength=len(self.materials)) > 0
-            if np.any(used & ~has):
-                b = int(np.flatnonzero(used & ~has)[0])
-                raise SceneError(f"SimSetup.passive: body {b} has only passive points; it needs material points")
+        check_passive(self.passive, self.p_vol, self.body_id, self.n_render, len(self.materials))
+        if self.cells is not None:
+            self.cells = check_cells(self.cells, n, self.passive)
         if not np.all(self.domain_hi > self.domain_lo):
             raise SceneError(f"SimSetup.domain_hi must exceed domain_lo on every axis, got "
                              f"{self.domain_lo.tolist()} / {self.domain_hi.tolist()}")

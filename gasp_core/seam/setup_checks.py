@@ -84,3 +84,46 @@ def check_boundaries(boundaries) -> None:
             lo_hi = [vector(f"boundaries[{i}].{key}", getattr(b, key)) for key in ("lo", "hi")]
             if not np.all(lo_hi[0] <= lo_hi[1]):
                 raise SceneError(f"{where}: lo = {lo_hi[0].tolist()} exceeds hi = {lo_hi[1].tolist()} on an axis")
+
+
+def check_passive(passive, p_vol: np.ndarray, body_id: np.ndarray, n_render: int, n_bodies: int) -> None:
+    """Refuse passive rows (``SimSetup.passive``, (n,) bool or None) with a volume, past ``n_render``, all rows
+    passive, or a body of passive rows alone.
+
+    Raises
+    ------
+    SceneError
+        Naming ``SimSetup.passive`` or ``SimSetup.p_vol`` and the rule broken (the body for the last).
+    """
+    if passive is None:
+        return
+    if np.any(p_vol[passive] != 0):
+        raise SceneError("SimSetup.p_vol: passive rows (SimSetup.passive) must have volume 0")
+    if passive[n_render:].any():
+        raise SceneError("SimSetup.passive: only rendered rows [:n_render] may be passive")
+    if passive.all():
+        raise SceneError("SimSetup.passive: every point is passive; the material needs points with volume")
+    has = np.bincount(body_id[~passive], minlength=n_bodies) > 0
+    used = np.bincount(body_id, minlength=n_bodies) > 0
+    if np.any(used & ~has):
+        b = int(np.flatnonzero(used & ~has)[0])
+        raise SceneError(f"SimSetup.passive: body {b} has only passive points; it needs material points")
+
+
+def check_cells(cells, n: int, passive) -> np.ndarray | None:
+    """``SimSetup.cells`` (``gasp_core.run.grady_cells``) as (n,) int32, or None where no point is in a cell.
+
+    Raises
+    ------
+    SceneError
+        Not (n,) integers, or a cell id at or past 256 (the engines' node key), naming ``SimSetup.cells``.
+    """
+    c = np.asarray(cells)
+    if c.shape != (n,) or not np.issubdtype(c.dtype, np.integer):
+        raise SceneError(f"SimSetup.cells: got shape {c.shape} of {c.dtype}; expected ({n},) integers")
+    cell = np.where(c <= -2, -2 - c, c)
+    if cell.max(initial=-1) >= 256:
+        raise SceneError(f"SimSetup.cells: cell {int(cell.max())}; expected at most 255")
+    if not (c != -1).any():
+        return None
+    return c.astype(np.int32)

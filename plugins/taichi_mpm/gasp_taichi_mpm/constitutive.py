@@ -313,13 +313,16 @@ class Constitutive:
             if kind == BRITTLE:
                 U, sig, V = self.svd(F)
                 eps = ti.log(ti.max(sig, 1e-4))
-                if Jp >= 1.0:   # broken through: cohesionless sand (docs/fracture.md)
+                if Jp >= 1.0 and not self.in_cell(p):   # broken through: cohesionless sand (docs/fracture.md; cells.py)
                     eps = self.drucker_prager(eps, mu, lam, prm[P_ALPHA])
                     F = self.udvt(U, ti.exp(eps), V)
                     tau = self.hencky_tau(U, eps, mu, lam)
                 else:
-                    sf = self.band_sf(p, U, eps, mu, lam, prm[P_FT], prm[P_SF])   # round 33's band weight
-                    tau, Jp = self.brittle_tau(U, eps, mu, lam, prm[P_FT], sf, Jp)
+                    ft = prm[P_FT]
+                    if self.cell_inside(p):   # a Grady cell's inside never damages (cells.py)
+                        ft = ti.cast(1e30, self.real)
+                    sf = self.band_sf(p, U, eps, mu, lam, ft, prm[P_SF])   # round 33's band weight
+                    tau, Jp = self.brittle_tau(U, eps, mu, lam, ft, sf, Jp)
         if ti.static(LIQUID in self.kinds):
             if kind == LIQUID:
                 J = F.determinant()

@@ -1,8 +1,8 @@
 """The ``taichi_mpm`` engine: a :class:`gasp_core.seam.engine.PointEngine` over :class:`MPMSolver`.
 
-Taichi has one runtime per process and ``ti.init`` resets it: **one taichi_mpm engine is live
-per process at a time**. Building a new engine invalidates every earlier one; calling an
-invalidated engine raises :class:`gasp_core.seam.engine.EngineError`.
+Taichi has one runtime per process and ``ti.init`` resets it: **one taichi_mpm engine is live per process at a
+time**. Building a new engine invalidates every earlier one; calling an invalidated engine raises
+:class:`gasp_core.seam.engine.EngineError`.
 """
 from __future__ import annotations
 
@@ -43,7 +43,6 @@ def use_tiles(p2g: str, n_material: int) -> bool:
 
 #: On CPU the coloured block P2G is used while the grid takes at most this many bytes (beyond, the atomic one).
 MAX_PRIVATE_GRID_BYTES = 1 << 30
-
 #: Taichi's offline kernel cache may hold this many bytes (its default, 100 MiB, is less than the kernels of
 #: GASP's test run; over it Taichi drops a quarter of the cached kernels at each exit, which then compile again:
 #: 12 s for the README donut's P2G alone). ``TI_OFFLINE_CACHE_MAX_SIZE_OF_FILES`` in the environment wins.
@@ -230,7 +229,8 @@ class TaichiMPMEngine(GridEngineBase, StateClock):
         return threads
 
     def _rigid_extras(self, setup: SimSetup, flows: np.ndarray, any_rigid: bool) -> None:
-        """Rigid bodies' restitution, hold of the flowing points (``flows``: per body) and pairs (round 62, rigid_pairs)."""
+        """Rigid bodies' restitution, hold of the flowing points (``flows``: per body), pairs (round 62); the cells."""
+        self.solver.allocate_cells(setup.cells, self._order)   # Grady's cells, or none (cells.py)
         self.solver.set_spin_shares(setup)   # round 76: the spin the points carry, booked (spin_booking.py)
         self.solver.set_restitution(body_table(setup), plane_table(setup, self.solver.n_planes), rest_speed(setup),
                                     face_counts(setup), ground_shapes(setup))

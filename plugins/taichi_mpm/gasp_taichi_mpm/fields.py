@@ -210,6 +210,8 @@ class Fields(PairTouch, PairPush, FieldFlip, FieldGround):
         v = self.grid_v[node]
         if ti.static(self.fields):
             v += self.own_part(p, self.grid_dv[node])
+        if ti.static(self.cells_on):   # Grady's cells (cells.py)
+            v += self.cell_v(p, node)
         return v
 
     @ti.func
@@ -365,6 +367,8 @@ class Fields(PairTouch, PairPush, FieldFlip, FieldGround):
         """After P2G (and the viscous step), before the grid update: the grounds' touched columns (``touch.py``), then
         the contact and the clear."""
         self.touch_update()
+        if self.cells_on:   # Grady's cells (cells.py)
+            self.cell_contact()
         if self.fields:
             if self.flow_touch_on:
                 self.mark_flow()

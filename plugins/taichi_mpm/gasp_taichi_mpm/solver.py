@@ -1,13 +1,13 @@
 """The MLS-MPM solver specified in ``docs/mpm.md`` on Taichi: :class:`MPMSolver` owns the fields, their
 allocation and the order of the kernels in a frame.
 
-3D MLS-MPM, quadratic B-splines, APIC transfers (Hu et al. 2018), constitutive models of
-taichi_elements / PhysGaussian. The kernels live in files by concern, the same files as the Warp plugin,
-each a mixin of :class:`MPMSolver`: :mod:`~gasp_taichi_mpm.transfers` (stencil, P2G, G2P, passive G2P),
-:mod:`~gasp_taichi_mpm.constitutive` (stresses, return mappings, polar, SVD), :mod:`~gasp_taichi_mpm.grid`
-(the grid update and its boundaries), :mod:`~gasp_taichi_mpm.colliders` (the collider rule, signed-distance
-colliders) and :mod:`~gasp_taichi_mpm.forces` (forces, impulses, their tables). ``ti.init`` must have
-been called (by :class:`gasp_taichi_mpm.engine.TaichiMPMEngine`) before it is built.
+3D MLS-MPM, quadratic B-splines, APIC transfers (Hu et al. 2018), constitutive models of taichi_elements /
+PhysGaussian. The kernels live in files by concern, the same files as the Warp plugin, each a mixin of
+:class:`MPMSolver`: :mod:`~gasp_taichi_mpm.transfers` (stencil, P2G, G2P, passive G2P),
+:mod:`~gasp_taichi_mpm.constitutive` (stresses, return mappings, polar, SVD), :mod:`~gasp_taichi_mpm.grid` (the grid
+update and its boundaries), :mod:`~gasp_taichi_mpm.colliders` (the collider rule, signed-distance colliders) and
+:mod:`~gasp_taichi_mpm.forces` (forces, impulses, their tables). ``ti.init`` must have been called (by
+:class:`gasp_taichi_mpm.engine.TaichiMPMEngine`) before it is built.
 
 Implementation notes (all algebraically identical to the spec; they change rounding only):
 
@@ -35,7 +35,6 @@ Implementation notes (all algebraically identical to the spec; they change round
 import numpy as np
 import taichi as ti
 
-# Material codes and the per-body parameter columns (``MPMSolver.mat``) are gasp_core.mpm.materials'.
 from gasp_core.mpm import grid_tables
 from gasp_core.mpm.substeps import passive_schedule
 from gasp_core.seam import SceneError
@@ -46,6 +45,7 @@ from .colliders import Colliders
 from .constitutive import Constitutive
 from .balance import Balance
 from .balance_gpu import BalanceGPU
+from .cells import Cells
 from .checks import FrameChecks
 from .contact import Contact
 from .fields import Fields
@@ -65,7 +65,7 @@ from .viscosity import ImplicitViscosity
 
 @ti.data_oriented
 class MPMSolver(MidStress, RigidCollider, Transfers, ColouredP2G, TileP2G, FixedPointP2G, Constitutive, GridUpdate, Colliders, Forces, Contact, Balance,
-                BalanceGPU, Rigid, Fields, RigidHold, FrameChecks, OrderedCPU):
+                BalanceGPU, Rigid, Fields, Cells, RigidHold, FrameChecks, OrderedCPU):
     """Fields and kernels of one simulation.
 
     Parameters
@@ -144,7 +144,7 @@ class MPMSolver(MidStress, RigidCollider, Transfers, ColouredP2G, TileP2G, Fixed
         self.coloured = bool(coloured) and not self.atomic and self.n_chunks == 1
         self.n_walls, self.n_grounds, self.n_regions = len(walls), len(grounds), len(regions)
         self.ground_rubs = any(g[0] > 0 for g in grounds)   # a ground with friction: the touched layer (touch.py)
-        # the particle contact (p_contact: (n, 3) per point, contact.py) with the grounds' and walls' planes (planes)
+        # the particle contact (p_contact: (n, 3) per point, contact.py) with the grounds' and walls' planes
         plane_n, plane_row = planes if planes is not None and p_contact is not None else (np.zeros((0, 3)),) * 2
         self.n_planes = len(plane_n)   # (contact_planes' normals and rows); grid_mv's last channel sums the budgets
         self.n_colc = int(n_colc) if p_contact is not None else 0   # colliders in the particle contact; its supports
@@ -376,9 +376,9 @@ class MPMSolver(MidStress, RigidCollider, Transfers, ColouredP2G, TileP2G, Fixed
         self.last_g2p(at[-1])   # G2P, the passive points', the rigid projection (rigid_hold.py)
 
     def p2g_substep(self, with_g2p: int, substep: int) -> None:
-        """(G2P and) P2G of one substep (coloured, tiled or atomic), then the implicit viscous step. Last, with the
-        particle contact, the bodies' moments for the contact's balance (:mod:`gasp_taichi_mpm.balance`), taken on the points'
-        ``x, v, C`` this P2G used (P2G leaves them as they are): warp_mpm's, which takes them before its P2G."""
+        """(G2P and) P2G of one substep (coloured, tiled or atomic), the implicit viscous step; with the particle
+        contact the bodies' moments for its balance (balance.py) on the ``x, v, C`` this P2G used (warp_mpm's)."""
+        with_g2p = self.cells_before_p2g(with_g2p)   # Grady's cells: G2P apart, the nodes' reference cells (cells.py)
         if self.coloured:
             self.p2g_coloured(with_g2p, substep)
         elif self.tiles:

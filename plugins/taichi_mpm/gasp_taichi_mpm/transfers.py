@@ -99,6 +99,7 @@ class Transfers:
         self.scatter_contact(base, w, budget, fn, fv)   # with colliders: the budget's normal, supports' velocity
         self.scatter_flow(p, base, w, m)   # with the contact chosen per body: the flowing bodies' mass
         self.scatter_field(p, base, w, mv0, A, m, S, fx, jvec)   # with the two-field contact: the point's field (fields.py)
+        self.scatter_cells(p, base, w, mv0, A, m)   # Grady's cells: the point's field at each node (cells.py)
         return mv0, A, S, m, jvec, eta_v, budget
 
     @ti.func

@@ -1,0 +1,132 @@
+"""Grady's cells on a soft brittle body at its landing (issue 66 item 4, "the pieces of 5 % never decrease with
+speed"; ``docs/fracture.md`` "Round 102: Grady's cells in the engines").
+
+A soft ``brittle`` body (one the grid simulates, not the rigid route of :mod:`gasp_core.run.fragment_run`) that
+a ground will meet within the coming frame in free fall (:func:`gasp_core.run.fragment_run.ground_hit`) at a speed
+that breaks it (:func:`gasp_core.run.fragments.break_check`: the plane-wave stress against ``f_t``, Grady's
+fragment size against the energy) is laid out in the stiff route's fragments, here called cells
+(:func:`gasp_core.run.fragments.split_body`: Voronoi cells of Grady's size, seeded around the impact point). The
+body stays one soft body; what changes is where it may crack:
+
+* a point with a rest neighbour in another cell (:func:`gasp_core.run.fragments.cut_damage`) is a *band* point and
+  damages as before (the crack band of ``docs/fracture.md``); every other point is a cell's *inside* and never
+  damages (Grady's fragments do not break again);
+* the engines part the cells at their faces: at each grid node the cell of the point of largest weight is the
+  node's reference cell, its points one velocity field there, every other cell's points the other; the two fields
+  move as one unless each has a broken point (damage 1) at the node, and then meet in Coulomb contact when they
+  approach and part freely when they do not (the engines' feature ``fracture_cells``);
+* the pieces (:class:`gasp_core.run.pieces.PieceTracker`) cut a link between two cells once it opens past its gap,
+  whatever its points' damage (:meth:`~gasp_core.run.pieces.PieceTracker.split_cells`).
+
+The study that chose this class is ``benchmarks/studies/cells101.py`` (a NumPy MLS-MPM apart from the engines).
+
+Limits: a scene of one body only (two-field contact between bodies and the cells' fields would need a third field
+where they meet: not modelled, the cells are not laid); a ground below the body along -z gravity; the body is laid
+out once. Cells under about 2 grid cells across hardly part (:data:`MIN_CELL_DX`; a warning says so).
+"""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from gasp_core.run.fragments import break_check, cut_damage, split_body
+
+#: ``SimSetup.cells`` of a point not laid out in cells.
+NO_CELL = -1
+#: The most cells the engines tell apart (their node key packs a cell id in 8 bits).
+MAX_CELLS = 256
+#: Cells narrower than this many grid cells hardly part (round 101's study: a ball of R 0.07 m, 2.0 cells, stayed whole).
+MIN_CELL_DX = 2.0
+#: Engine feature: reads ``SimSetup.cells`` (module notes).
+FEATURE = "fracture_cells"
+
+
+def encode(cell: np.ndarray, band: np.ndarray) -> np.ndarray:
+    """``SimSetup.cells`` from each point's cell ``cell`` (n,) int >= 0 and whether it is a band point ``band`` (n,)
+    bool: the cell for a band point, ``-2 - cell`` for an inside point (it never damages); shape (n,), int32."""
+    cell = np.asarray(cell, np.int64)
+    return np.where(np.asarray(band, bool), cell, -2 - cell).astype(np.int32)
+
+
+def decode(cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(cell, inside)`` of ``SimSetup.cells`` (:func:`encode`): each point's cell (n,) int64, :data:`NO_CELL` where
+    none, and whether it is a cell's inside (n,) bool."""
+    c = np.asarray(cells, np.int64)
+    inside = c <= -2
+    return np.where(inside, -2 - c, c), inside
+
+
+def soft_brittle(setup) -> bool:
+    """Whether ``setup`` is one soft ``brittle`` body (not on the rigid route) under gravity along -z with a ground:
+    the scenes the cells are laid in (module notes)."""
+    if len(setup.materials) != 1:
+        return False
+    m = setup.materials[0]
+    g = np.asarray(setup.gravity, np.float64)
+    return (m.name == "brittle" and m.model != "rigid" and g[2] < 0 and np.allclose(g[:2], 0.0)
+            and any(b.kind == "ground" for b in setup.boundaries))
+
+
+def landing(setup, x: np.ndarray, v: np.ndarray) -> dict | None:
+    """The body's landing within the coming frame, as its free fall from ``x``, ``v`` (n, 3) predicts it
+    (:func:`gasp_core.run.fragment_run.ground_hit` from its lowest material point over the highest ground below
+    it, its mean vertical speed): ``{"speed": m/s, "impact_point": (3,)}``, or None."""
+    from gasp_core.run.fragment_run import ground_hit
+    mat = setup.material_mask
+    xm, m = np.asarray(x, np.float64)[mat], setup.p_mass[mat]
+    z0 = float(xm[:, 2].min())
+    grounds = [b.height for b in setup.boundaries if b.kind == "ground" and b.height <= z0]
+    if not grounds:
+        return None
+    vz = float((m * np.asarray(v, np.float64)[mat, 2]).sum() / m.sum())
+    speed = ground_hit(z0 - max(grounds), vz, -float(setup.gravity[2]), float(setup.frame_dt))
+    if speed is None:
+        return None
+    spacing = float(np.cbrt(np.max(setup.p_vol[mat])))
+    foot = xm[:, 2] <= z0 + spacing
+    return {"speed": speed, "impact_point": np.array([*xm[foot, :2].mean(0), z0])}
+
+
+def lay(setup, x: np.ndarray, v: np.ndarray, seed: int = 0) -> tuple[np.ndarray, dict] | None:
+    """The cells of ``setup``'s body at positions ``x`` and velocities ``v`` (n, 3), when :func:`soft_brittle` and
+    its :func:`landing` within the coming frame breaks it (:func:`break_check`): ``(cells, record)``, ``cells`` the
+    ``SimSetup.cells`` (:func:`encode`) and ``record`` the split's figures (JSON-ready); None otherwise.
+
+    Warns (UserWarning) when the cells are under :data:`MIN_CELL_DX` grid cells across: they hardly part there, and
+    the pieces fall short of Grady's."""
+    if not soft_brittle(setup):
+        return None
+    hit = landing(setup, x, v)
+    if hit is None:
+        return None
+    mat = setup.material_mask
+    xm = np.asarray(x, np.float64)
+    m = setup.materials[0]
+    chk = break_check(m, float(setup.p_mass.sum()), float(setup.p_vol[mat].sum()), float(np.ptp(xm[mat, 2])),
+                      hit["speed"])
+    if not chk["breaks"]:
+        return None
+    spacing = float(np.cbrt(np.max(setup.p_vol[mat])))
+    cell = split_body(xm, mat, spacing, hit["impact_point"], chk["count"], chk["size"], seed)
+    if cell.max() >= MAX_CELLS:   # split_body's parts beyond the engines' key: the smallest join cell 0's field
+        cell = np.where(cell >= MAX_CELLS, cell % MAX_CELLS, cell)
+    band = cut_damage(xm, cell, mat, spacing) > 0
+    size_dx = chk["size"] / setup.dx
+    if size_dx < MIN_CELL_DX:
+        warnings.warn(f"brittle body: Grady's fragments at {hit['speed']:.3g} m/s are {size_dx:.2f} grid cells "
+                      f"across, under {MIN_CELL_DX}: they hardly part on this grid and the pieces fall short; "
+                      f"raise n_grid", UserWarning, stacklevel=2)
+    record = {"speed": round(hit["speed"], 4), "impact_point": [round(float(c), 5) for c in hit["impact_point"]],
+              "cells": int(cell.max() + 1), "size": chk["size"], "size_dx": round(size_dx, 3),
+              "band": round(float(band[mat].mean()), 4)}
+    return encode(cell, band), record
+
+
+def laid(setup, seed: int = 0):
+    """``setup`` with its cells laid at its start (:func:`lay` on ``setup.x``, ``setup.v``), and the record (None
+    where not laid): what a run does at frame 0, and the pieces family's scenes."""
+    out = lay(setup, setup.x, setup.v, seed)
+    if out is None:
+        return setup, None
+    return setup.replace(cells=out[0]), out[1]
