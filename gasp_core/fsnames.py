@@ -61,6 +61,21 @@ def check_output_name(outdir: Path) -> None:
                         f"into a hidden '.NAME.partial-XXXXXXXX' beside it first); choose a shorter name")
 
 
+def refuse_link(outdir: Path) -> None:
+    """Refuse an output folder that is a symbolic link: a run commits by putting its new folder in the output's place,
+    which would replace the link by a folder and leave the old run at the link's target (round 102).
+
+    Raises
+    ------
+    GaspError
+        Naming the link and its target.
+    """
+    if outdir.is_symlink():
+        raise GaspError(f"output folder '{outdir}' is a symbolic link (to '{os.readlink(outdir)}'); gasp writes a "
+                        f"new folder in the output's place and would replace the link; give the folder it points "
+                        f"to, or another name")
+
+
 def alive(pid: int) -> bool:
     """True if process ``pid`` exists (or exists under another user)."""
     try:

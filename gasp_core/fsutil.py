@@ -26,7 +26,7 @@ from contextlib import contextmanager
 from typing import Callable, Iterable, Iterator
 
 from gasp_core.errors import GaspError
-from gasp_core.fsnames import alive, check_folder, check_output_name, is_within, temp_prefix
+from gasp_core.fsnames import alive, check_folder, check_output_name, is_within, refuse_link, temp_prefix
 from gasp_core.fsmarker import CLAIM, MARKER, NO_LIST, foreign_entries, unexpected_entries, write_marker
 
 PARTIAL_INFIX = ".partial-"
@@ -167,7 +167,7 @@ class OutputClaim:
     Raises
     ------
     GaspError
-        The folder is unsafe to replace, not a GASP output, a file, or not writable.
+        The folder is unsafe to replace, not a GASP output, a file, a symbolic link, or not writable.
     FileExistsError
         It exists (without ``overwrite``) or another run holds it.
     """
@@ -178,6 +178,7 @@ class OutputClaim:
         self.overwrite = overwrite
         self.token = secrets.token_hex(8)
         self.created = False
+        refuse_link(self.outdir)   # before anything resolves through it
         out = self.outdir.resolve()
         for p in [Path.cwd(), *map(Path, protected)]:
             p = p.resolve()

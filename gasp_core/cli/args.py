@@ -50,8 +50,31 @@ def grid_size(text: str) -> int:
     return value
 
 
+#: The most frames a report's rendered strip takes (``--strip-frames``): each is a 256-pixel column of every run's row,
+#: rendered once per run; more than the run's frames already reads as every frame (round 102: 100000000 was taken).
+MAX_STRIP_FRAMES = 100
+
+
+def strip_count(text: str) -> int:
+    """argparse type: frames per rendered strip, an integer in ``[0, MAX_STRIP_FRAMES]`` (``--strip-frames``; 0: none).
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        For text that is not an integer or one outside the range; the message quotes it and names the range.
+    """
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer in [0, {MAX_STRIP_FRAMES}], got {text!r}") from None
+    if not 0 <= value <= MAX_STRIP_FRAMES:
+        raise argparse.ArgumentTypeError(f"expected an integer in [0, {MAX_STRIP_FRAMES}] (frames per strip; 0: "
+                                         f"none), got {text!r}")
+    return value
+
+
 def positive_float(text: str) -> float:
-    """argparse type: a finite number > 0 (``--rho``).
+    """argparse type: a finite number > 0 (``--rho``, ``--timeout``).
 
     Raises
     ------

@@ -29,7 +29,8 @@ from pathlib import Path
 import warnings
 
 from gasp_core.cli import early, streams
-from gasp_core.cli.args import GaspArgumentParser, add_export_parser, grid_size, length, positive_float, positive_int
+from gasp_core.cli.args import (MAX_STRIP_FRAMES, GaspArgumentParser, add_export_parser, grid_size, length,
+                                positive_float, positive_int, strip_count)
 from gasp_core.cli.engines import cmd_engines
 from gasp_core.cli.place import add_place_parser
 from gasp_core.cli.simulate import add_simulate_parser, reporter_for
@@ -140,10 +141,12 @@ def _add_study_args(p: argparse.ArgumentParser) -> None:
                    help="run on an existing Dask cluster (default: a local one, a fresh process per run)")
     p.add_argument("--workers", type=int, default=1,
                    help="local worker processes running at once (default 1: comparable timings)")
-    p.add_argument("--timeout", type=float,
-                   help="wall-clock limit of one run, seconds (default 3600 for compare, 1800 for bench)")
-    p.add_argument("--strip-frames", type=int, default=6, metavar="N",
-                   help="frames per rendered strip in the report (default 6; 0 = none; needs the render extra)")
+    p.add_argument("--timeout", type=positive_float,
+                   help="wall-clock limit of one run, seconds, finite and > 0 (default 3600 for compare, 1800 for "
+                        "bench)")
+    p.add_argument("--strip-frames", type=strip_count, default=6, metavar="N",
+                   help=f"frames per rendered strip in the report, 0 to {MAX_STRIP_FRAMES} (default 6; 0 = none; "
+                        "needs the render extra)")
 
 
 def _cmd_export_soup(args) -> int:

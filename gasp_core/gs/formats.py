@@ -105,9 +105,11 @@ def check_decoded(path, g: Gaussians) -> Gaussians:
     """``g`` as decoded from a file that is not a PLY, after refusing (one :class:`SceneError` line naming the
     file, the field and the splat) what the PLY reader refuses too: a position or scale that is not finite or
     beyond :data:`~gasp_core.gs.gaussians.MAX_MAGNITUDE`, a negative scale, a colour or SH coefficient that
-    is not finite, a NaN opacity."""
+    is not finite, a NaN opacity. A file of no splats reads as no Gaussians, as a PLY of 0 vertices does (round 102:
+    a ``.spz`` gasp wrote of none was refused as "0 splats"); a scene refuses it
+    (:func:`gasp_core.prepare.checks.check_object`: "the file has 0 Gaussians; nothing to simulate")."""
     if g.n == 0:
-        reject_file(path, "0 splats; expected at least one Gaussian")
+        return g
     fields = (("position", g.means, True), ("scale", g.scales, True), ("colour", g.sh_dc, False),
               ("SH coefficient", g.sh_rest.reshape(g.n, -1), False))
     with np.errstate(invalid="ignore"):

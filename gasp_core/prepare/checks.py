@@ -27,6 +27,19 @@ def warn_invisible(f, g) -> None:
                       " the frames will render nothing; is this the trained scene's file?", stacklevel=3)
 
 
+def warn_one_point(f, g) -> None:
+    """Warn (naming the file ``f``, the count and the point) when two or more of ``g``'s Gaussians, and every one,
+    share one centre: a degenerate object with no extent, simulated as one blob (round 102: up to
+    :data:`gasp_core.gs.io.MAX_AT_ONE_POINT` of them ran without a word; more are refused). Not an error: a few
+    Gaussians at one point are a legal, tiny object; one Gaussian alone is not warned about."""
+    x = np.asarray(g.means, np.float64)
+    if g.n >= 2 and np.isfinite(x).all() and not (np.ptp(x, axis=0) > 0).any():
+        at = ", ".join(f"{float(v) + 0.0:.6g}" for v in x[0])   # + 0.0: no "-0"
+        warnings.warn(f"{f}: all {g.n} Gaussians lie at one point ({at}): the object has no extent and simulates "
+                      "as one blob; expected Gaussians spread over a surface; is this the trained scene's file?",
+                      stacklevel=3)
+
+
 def check_object(spec: ObjectSpec, g) -> None:
     """Check an object's Gaussians against its placement before any work.
 
@@ -43,13 +56,15 @@ def check_object(spec: ObjectSpec, g) -> None:
         (:func:`gasp_core.gs.io.refuse_one_point`), or if placed with ``spec.scale`` and ``spec.position`` a
         Gaussian's centre would lie beyond :data:`MAX_COORD` metres from the origin on some axis,
         or a Gaussian's largest scale would exceed :data:`MAX_COORD` metres; the message names the
-        file, the value and the limit.
+        file, the value and the limit. Warns (:func:`warn_one_point`, :func:`warn_invisible`) for fewer Gaussians all
+        at one point and for Gaussians all invisible.
     """
     f = spec.file
     if g.n == 0:
         raise SceneError(f"{f}: the file has 0 Gaussians; nothing to simulate")
     from gasp_core.gs.io import refuse_one_point
     refuse_one_point(f, g)
+    warn_one_point(f, g)
     warn_invisible(f, g)
     x = g.means
     lo, hi = x.min(axis=0), x.max(axis=0)

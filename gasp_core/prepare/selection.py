@@ -69,6 +69,14 @@ def world_triangles(g: Gaussians, pl: Placement) -> np.ndarray:
 
 def _load_mask(path: Path, n: int, where: str) -> np.ndarray:
     try:
+        with open(path, "rb") as f:
+            head = f.read(6)
+    except OSError as e:
+        raise SceneError(f"{where}: cannot read '{path}': {e.strerror}") from None
+    if head != b"\x93NUMPY" and not head.startswith(b"PK"):   # numpy reads any other file as pickled data
+        raise SceneError(f"{where}: '{path}' is not a .npy file (no numpy header); expected an array written by "
+                         f"numpy.save: bool, one per Gaussian ({n}), or integer row indices")
+    try:
         a = np.load(path, allow_pickle=False)
     except (OSError, ValueError, EOFError) as e:
         raise SceneError(f"{where}: cannot read '{path}' as a .npy array: {e}") from None
@@ -118,7 +126,8 @@ def region_rows(spec: ObjectSpec, g: Gaussians, pl: Placement) -> np.ndarray:
     SceneError
         The region holds no Gaussian ("select box holds 0 of N Gaussians", with the centres'
         bounds in that frame); an index out of range; a mask that is not a boolean array of one
-        entry per Gaussian nor a 1-D integer array, or cannot be read.
+        entry per Gaussian nor a 1-D integer array, not a .npy file (a text file: one line naming it), or
+        cannot be read.
     """
     sel, n = spec.select, g.n
     where = f"{spec.file}: select {sel.kind}"

@@ -85,8 +85,8 @@ def simulate_scene(scene: Scene, outdir: str | Path, request: SimulateRequest | 
     FileExistsError
         ``outdir`` exists and ``overwrite`` is false, or another run holds it (before any work).
     GaspError
-        ``outdir`` unsafe to replace (it holds an input, the scene or the working directory) or
-        not a gasp output; the claim lost during the run; ``resume`` with ``discard``.
+        ``outdir`` unsafe to replace (it holds an input, the scene or the working directory),
+        not a gasp output or a symbolic link; the claim lost during the run; ``resume`` with ``discard``.
     SceneError, EngineError
         Bad input or an engine that cannot run the scene, before any simulation.
     EngineDivergence
