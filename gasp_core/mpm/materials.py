@@ -48,13 +48,14 @@ class Param(IntEnum):
     SF = 11
     DMU = 12
     IK = 13
+    CELLS = 14
 
 
 #: The codes and columns as plain ints, the constants the plugins' kernels compile in.
 JELLY, NEO_HOOKEAN, METAL, SAND, SNOW, PLASTICINE, LIQUID, BRITTLE = (int(k) for k in MaterialKind)
 MATERIAL_CODES = {k.name.lower(): int(k) for k in MaterialKind}
 (P_MU, P_LAM, P_YIELD, P_SOFTENING, P_HARDENING, P_THETA_C, P_THETA_S, P_ALPHA, P_K, P_ETA, P_FT,
- P_SF, P_DMU, P_IK) = (int(c) for c in Param)
+ P_SF, P_DMU, P_IK, P_CELLS) = (int(c) for c in Param)
 N_PARAMS = len(Param)
 #: von Mises yield surface radius per unit yield stress: metal and plasticine return-map the Hencky
 #: strain's deviator ``e`` onto ``2 mu ||e|| <= sqrt(2/3) Y``, i.e. ``||dev tau|| <= sqrt(2/3) Y``, so a
@@ -194,7 +195,7 @@ def band_softening_stress(ft, sf, W):
     return ft + np.asarray(W, np.float64) * (sf - ft)
 
 
-def material_table(materials: Sequence[Material], band=None) -> tuple[np.ndarray, np.ndarray]:
+def material_table(materials: Sequence[Material], band=None, cells=None) -> tuple[np.ndarray, np.ndarray]:
     """Material code and parameter row of each body, as the kernels read them.
 
     Parameters
@@ -204,6 +205,9 @@ def material_table(materials: Sequence[Material], band=None) -> tuple[np.ndarray
     band : float, sequence of float (one per body) or None
         Crack band width of each body, m (``SimSetup.crack_band``: ``dx``); needed when a
         ``brittle`` body is present.
+    cells : bool, sequence of bool (one per body) or None
+        Whether each body is laid out in Grady's cells (``gasp_core.run.grady_cells``, which lays them in scenes of
+        one body: the engines give ``SimSetup.cells is not None``); None: none.
 
     Returns
     -------
@@ -218,7 +222,9 @@ def material_table(materials: Sequence[Material], band=None) -> tuple[np.ndarray
         viscosity :attr:`Material.viscosity`, Pa s: the kernels add the Kirchhoff stress
         ``J eta (C + C^T)``, APIC's ``C`` standing for ``grad v``; ``docs/dissipation.md``), and for a
         ``brittle`` body ``P_FT`` (tensile strength ``f_t``, Pa) and ``P_SF`` (:func:`softening_stress`, Pa), and for
-        a ``sand`` body with a ``grain_diameter`` ``P_DMU`` and ``P_IK`` (:func:`mu_of_I`; 0 without).
+        a ``sand`` body with a ``grain_diameter`` ``P_DMU`` and ``P_IK`` (:func:`mu_of_I`; 0 without), and
+        ``P_CELLS`` 1 for a body laid out in Grady's cells: its broken points keep their tension-free elastic stress
+        (the cells' two fields part them) instead of flowing as cohesionless sand.
 
     Raises
     ------
@@ -258,15 +264,22 @@ def material_table(materials: Sequence[Material], band=None) -> tuple[np.ndarray
                 raise SceneError(f"material 'brittle' (body {b}) needs its crack band width h (SimSetup.crack_band)")
             params[b, P_FT] = m.tensile_strength
             params[b, P_SF] = softening_stress(m, float(np.broadcast_to(band, (len(materials),))[b]))
+            params[b, P_CELLS] = float(bool(np.broadcast_to(bool(cells) if np.ndim(cells) == 0 else cells,
+                                                            (len(materials),))[b]))
     return kinds, params
 
 
-def initial_Jp(materials: Sequence[Material], body_id: np.ndarray) -> np.ndarray:
+def initial_Jp(materials: Sequence[Material], body_id: np.ndarray, cells=None) -> np.ndarray:
     """Initial ``Jp`` of each point, shape (n,), float64.
 
     ``Jp`` is the plastic volume ratio for ``snow`` (1 at rest; Stomakhin et al. 2013) and the
     accumulated plastic strain for ``plasticine`` (0 at rest) and the damage ``d`` for ``brittle`` (0 at rest,
-    ``docs/fracture.md``); no other model reads it (1).
+    ``docs/fracture.md``); no other model reads it (1). ``cells`` (``SimSetup.cells``, (n,) int, or None): a Grady
+    cell's inside (<= -2, ``gasp_core.run.grady_cells``) starts at -1, which the brittle return reads as "never
+    damages" (the engines' damage reads 0 there).
     """
     start = np.array([0.0 if m.name in ("plasticine", "brittle") else 1.0 for m in materials])
-    return start[np.asarray(body_id)]
+    out = start[np.asarray(body_id)]
+    if cells is not None:
+        out = np.where(np.asarray(cells) <= -2, -1.0, out)
+    return out

@@ -9,7 +9,8 @@ same bits in any order). In P2G a split point whose cell is the node's reference
 unless each has a broken point (damage 1) there, and then meet in Coulomb contact when they approach (the normal
 field B's mass gradient, as the two-field contact of ``gasp_core.mpm.fields`` takes it) and part freely when they
 do not. G2P reads a split point's velocity at a node as the grid's plus its field's offset (:meth:`Cells.cell_v`).
-A cell's inside (``SimSetup.cells`` <= -2) never damages (:meth:`Cells.cell_inside`).
+A cell's inside (``SimSetup.cells`` <= -2) starts at ``Jp`` -1 and never damages, and a broken point of a body in
+cells keeps its tension-free stress (``P_CELLS``; ``gasp_core.mpm.materials``, constitutive.py).
 
 Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver` (its ``x``, ``Jp``, ``grid_mv``, ``touched_box``, ``held_node``).
 """
@@ -17,12 +18,7 @@ import numpy as np
 import taichi as ti
 
 from gasp_core.mpm.fields import MIN_FRACTION, MIN_GRADIENT
-
-#: The node key's weight scale: the largest quadratic weight (0.75^3) times it stays under 2^31 / 256.
-KEY_SCALE = float(1 << 22)
-#: The crack faces' Coulomb coefficient (round 101's study, ``benchmarks/studies/cells101.py --mu``).
-FACE_MU = 0.5
-
+from gasp_core.run.grady_cells import FACE_MU, KEY_SCALE
 
 @ti.data_oriented
 class Cells:
@@ -65,28 +61,11 @@ class Cells:
         return c
 
     @ti.func
-    def cell_inside(self, p):
-        """Whether point p is a cell's inside (it never damages); False without cells."""
-        out = False
-        if ti.static(self.cells_on):
-            out = self.p_cell[p] <= -2
-        return out
-
-    @ti.func
-    def in_cell(self, p):
-        """Whether point p is in a cell (a broken band point then keeps its tension-free elastic stress: the cells'
-        fields part it, it does not flow as sand); False without cells."""
-        out = False
-        if ti.static(self.cells_on):
-            out = self.p_cell[p] != -1
-        return out
-
-    @ti.func
     def cell_side(self, c, node):
         """0 where cell ``c`` is ``node``'s reference cell (or ``c`` is none), else 1."""
         ref = self.grid_ref[node]
         side = 0
-        if c >= 0 and ref >= 0 and (ref & 255) != c:
+        if c >= 0 and ref >= 0 and ref % 256 != c:
             side = 1
         return side
 
@@ -184,7 +163,7 @@ class Cells:
         out = ti.Vector.zero(self.real, 3)
         if ti.static(self.cells_on):
             c = self.cell_of(p)
-            if c >= 0:
+            if c >= 0 and self.p_mass[p] > 0.0:   # a passive point follows the grid's velocity
                 d = self.grid_cdv[node]
                 out = ti.Vector([d[0], d[1], d[2]])
                 if self.cell_side(c, node) == 1:

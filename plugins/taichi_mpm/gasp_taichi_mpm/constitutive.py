@@ -10,7 +10,7 @@ import taichi as ti
 
 # Material codes and the per-body parameter columns (``MPMSolver.mat``) are gasp_core.mpm.materials'.
 from gasp_core.mpm.materials import (BRITTLE, JELLY, LIQUID, METAL, NEO_HOOKEAN, P_ALPHA, P_DMU, P_FT, P_HARDENING, P_IK,
-                                         P_K, P_LAM, P_MU, P_SF, P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD,
+                                         P_CELLS, P_K, P_LAM, P_MU, P_SF, P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD,
                                          PLASTICINE, SAND, SNOW, VON_MISES_RADIUS)
 
 
@@ -313,16 +313,15 @@ class Constitutive:
             if kind == BRITTLE:
                 U, sig, V = self.svd(F)
                 eps = ti.log(ti.max(sig, 1e-4))
-                if Jp >= 1.0 and not self.in_cell(p):   # broken through: cohesionless sand (docs/fracture.md; cells.py)
+                if Jp >= 1.0 and prm[P_CELLS] == 0.0:   # broken through: cohesionless sand (docs/fracture.md)
                     eps = self.drucker_prager(eps, mu, lam, prm[P_ALPHA])
                     F = self.udvt(U, ti.exp(eps), V)
                     tau = self.hencky_tau(U, eps, mu, lam)
-                else:
-                    ft = prm[P_FT]
-                    if self.cell_inside(p):   # a Grady cell's inside never damages (cells.py)
-                        ft = ti.cast(1e30, self.real)
-                    sf = self.band_sf(p, U, eps, mu, lam, ft, prm[P_SF])   # round 33's band weight
-                    tau, Jp = self.brittle_tau(U, eps, mu, lam, ft, sf, Jp)
+                elif Jp < 0.0:   # a Grady cell's inside (initial_Jp -1) never damages (cells.py)
+                    tau = self.hencky_tau(U, eps, mu, lam)
+                else:   # in Grady's cells (P_CELLS) a broken point keeps its tension-free stress (cells.py)
+                    sf = self.band_sf(p, U, eps, mu, lam, prm[P_FT], prm[P_SF])   # round 33's band weight
+                    tau, Jp = self.brittle_tau(U, eps, mu, lam, prm[P_FT], sf, Jp)
         if ti.static(LIQUID in self.kinds):
             if kind == LIQUID:
                 J = F.determinant()

@@ -159,10 +159,10 @@ class TaichiMPMEngine(GridEngineBase, StateClock):
         walls, grounds, regions = node_ranges(setup, dx, reach)
         mixed = ((flowing_bodies(view, contact),) + node_ranges(setup, dx, full)[:2]) if contact == "mixed" else None
         fixed = held_codes(setup.x, setup.boundaries, dx, sampled=True)   # 1 held, 2+ held and strained (near a face)
-        kinds, params = zero_stress(*material_table(setup.materials, setup.crack_band), setup.materials, JELLY)
+        kinds, params = zero_stress(*material_table(setup.materials, setup.crack_band, setup.cells is not None), setup.materials, JELLY)
         rigid = rigid_mask(setup.materials)
         frames = body_frames(setup.x[o], setup.p_mass[o], setup.body_id[o], rigid) if rigid.any() else None
-        jp0 = initial_Jp(setup.materials, setup.body_id)
+        jp0 = initial_Jp(setup.materials, setup.body_id, setup.cells)
         bytes_per = 4 if real == ti.f32 else 8
         grid_bytes = 4 * bytes_per * setup.n_grid ** 3
         from .schedule import resolve

@@ -24,7 +24,8 @@ __all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "WarpMPMConfig", "gasp_engines",
 ENGINE = "warp_mpm"
 
 #: The MLS-MPM record of the grid-engine base (``gasp_core.mpm.grid_engine``), with the rigid limit (issue 40).
-CAPABILITIES = dataclasses.replace(MPM_CAPABILITIES, features=MPM_CAPABILITIES.features | {"rigid_limit", "sleep", "body_friction"})
+CAPABILITIES = dataclasses.replace(MPM_CAPABILITIES, features=MPM_CAPABILITIES.features | {"rigid_limit", "sleep", "body_friction",
+                                                                                      "fracture_cells"})
 
 @dataclass(frozen=True)
 class WarpMPMConfig(MPMConfigCudaIndex):

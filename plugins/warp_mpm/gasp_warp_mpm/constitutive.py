@@ -13,7 +13,7 @@ import warp as wp
 
 # Material codes and the columns of the per-body parameter table ``mat_par`` are gasp_core.mpm.materials'.
 from gasp_core.mpm.materials import (BRITTLE, JELLY, METAL, NEO_HOOKEAN, P_ALPHA, P_DMU, P_FT, P_HARDENING, P_IK, P_K,
-                                         P_LAM, P_MU, P_SF, P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE,
+                                         P_CELLS, P_LAM, P_MU, P_SF, P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE,
                                          SAND, SNOW, VON_MISES_RADIUS)
 
 from .precision import build_types
@@ -301,6 +301,8 @@ def build_brittle_return(Ft):
                    wp.log(wp.max(sig[2], Ft(1e-4))))
         s = Ft(2.0) * mu * eps + vec3(lam * (eps[0] + eps[1] + eps[2]))
         smax = wp.max(s[0], wp.max(s[1], s[2]))
+        if d < Ft(0.0):   # a Grady cell's inside (initial_Jp -1): never damages (cells.py)
+            return F_trial, U * wp.diag(s) * wp.transpose(U)
         ft = mat_par[b, P_FT]
         sf = mat_par[b, P_SF]
         if band != 0:   # round 33's crack band weight (a free point; held_return's band)
@@ -353,7 +355,8 @@ def build_return_mapping(Ft):
         elif kind == SNOW:
             Fp, tau = snow_return(Fp, mu, lam, b, p, mat_par, Jp)
         elif kind == BRITTLE:
-            if Jp[p] >= Ft(1.0):   # broken through: cohesionless sand (docs/fracture.md)
+            if Jp[p] >= Ft(1.0) and mat_par[b, P_CELLS] == Ft(0.0):   # broken through: cohesionless sand
+                # (docs/fracture.md); in Grady's cells (P_CELLS) it keeps its tension-free stress (cells.py)
                 Fp, tau = hencky_return(Fp, mu, lam, SAND, b, p, mat_par, Jp, dt)
             else:
                 Fp, tau = brittle_return(Fp, mu, lam, b, p, mat_par, Jp, fx, band)

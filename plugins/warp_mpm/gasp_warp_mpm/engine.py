@@ -18,10 +18,9 @@ Choices where docs/mpm.md leaves room (the Taichi plugin agrees to ~1e-5 m on al
 - ``metal`` / ``plasticine`` rebuild ``F = U diag(exp(eps)) V^T`` only when ``dg > 0``; ``sand`` always rebuilds it.
 - Wall friction axis by axis, x then y then z, the low face before the high face.
 - A point out of the grid neither scatters nor gathers, keeps its ``x, v, C`` for the frame, which raises
-  :class:`EngineDivergence`.
-- ``p_mass v + affine dpos`` and APIC's ``C`` in a factored form (``A (i, j, k) - A fx``): rounding only.
-- On CPU the points are kept sorted by grid cell (re-sorted after every frame, stable, so runs repeat bit for
-  bit; every per-point array moves with them, the contact coefficients included); outputs are in ``setup.x``'s order.
+  :class:`EngineDivergence`. ``p_mass v + affine dpos`` and APIC's ``C`` in a factored form: rounding only.
+- On CPU the points are kept sorted by grid cell (re-sorted after every frame, stable, so runs repeat bit for bit;
+  every per-point array moves with them, the contact coefficients and cells included); outputs in ``setup.x``'s order.
 """
 from __future__ import annotations
 
@@ -43,6 +42,7 @@ from gasp_core.seam import CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSet
 
 from . import ENGINE, WarpMPMConfig, kernels as K
 from .balance_alloc import allocate_balance
+from .cells import cell_arrays, cell_launches
 from .colliders import hold_launches
 from .fields import allocate_fields, field_launches, grid_sweep   # grid_sweep: round 64's grid_box.py
 from .pair_push import with_push
@@ -87,7 +87,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
         self.setup = setup
         self.options = opts = setup.options  # checked and completed by the core (build_engine)
         cfg = self.config = WarpMPMConfig(**opts)   # the same settings, typed
-        kinds, par = zero_stress(*material_table(setup.materials, setup.crack_band), setup.materials, JELLY)   # rigid bodies: no stress
+        kinds, par = zero_stress(*material_table(setup.materials, setup.crack_band, setup.cells is not None), setup.materials, JELLY)   # rigid bodies: no stress
         steps = choose_dt(step_view(setup), opts, ENGINE, implicit_viscosity=True)  # refuses a scene past max_substeps before any build work
         check_memory(estimate_bytes(len(setup.x), setup.n_grid, cfg.precision), ENGINE,
                      f"{len(setup.x)} points, n_grid {setup.n_grid}, {cfg.precision}")
@@ -128,7 +128,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
         Points that start inside a fixed region are held (docs/mpm.md G2P)."""
         setup, order, dt_np, k, arr = self.setup, self._order, self._np_dtype, self.k, self._array
         fixed = held_codes(setup.x, setup.boundaries, self.dx, sampled=True).astype(np.int32)   # 2+: strained
-        jp0 = initial_Jp(setup.materials, setup.body_id)
+        jp0 = initial_Jp(setup.materials, setup.body_id, setup.cells)
         self.x = arr(setup.x[order].astype(dt_np), k.vec3)
         self.v = arr(setup.v[order].astype(dt_np), k.vec3)
         self.F = arr(np.broadcast_to(np.eye(3, dtype=dt_np), (self.n_points, 3, 3)), k.mat33)
@@ -222,7 +222,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
                 self.grid_g, self.has_wind, self.grid_mv0, int(self.flip > 0), self.p_contact, self.planes, self.plane_n,
                 self.grid_fb, self.grid_eta, self.c_shift, self.grid_fbody, ex, self.colc, self.n_sup, self.grid_fn,
                 self.grid_fv, self.grid_mf, self.mf_bodies, self.grid_sv, self.grid_vf, self.in_a, self.fixed, rule,
-                self.p_pic, self.body_mu, *self.trap_arrays()]),
+                self.p_pic, self.body_mu, *self.trap_arrays(), *cell_arrays(self, "p2g")]),
             wp.launch(k.grid_update, dim=grid_sweep(self)[1], device=d, record_cmd=True, inputs=[
                 self.grid_mv, self.grid_v, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, Ft(self.wall_in), self.wall_mu,
                 self.ground, self.fixed_lo, self.fixed_hi, self.touch_slots, has_extras, ex, self.grid_g, self.has_wind,
@@ -233,9 +233,10 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
             wp.launch(k.g2p, dim=self.n_material, device=d, record_cmd=True, inputs=[
                 self.x, self.v, self.C, self.fixed, self.grid_v, lo_v, inv_dx, dt_f, ng, self.grid_v0, Ft(self.flip),
                 self.grid_dv, self.body, self.in_a, ex, self.mat_kind, self.fixed_lo, self.fixed_hi, dx, rule,
-                self.grid_m]),
+                self.grid_m, *cell_arrays(self, "g2p")]),
         ] + hold_launches(self, Ft, has_extras, ex) + self._rigid_launches(Ft)
         self._pre, fixes = balance_for(self, k, lo_v, dx, dt_f, ex)   # the balance's; then round 49's, held.py's
+        self._pre = cell_launches(self, Ft)[0] + self._pre   # Grady's cells: the nodes' reference cells (cells.py)
         self._launches[2:3] = (self.share_launches(Ft) + fixes + mirror_launches(self, Ft, has_extras, ex)
                                + collider_launches(self, Ft, self._launches[2]))   # round 63; G2P, round 66's points
         # after P2G: touch.py, fields.py (round 62's push before the fields' clear: pair_push.py; round 63's mark)
@@ -274,7 +275,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
         if np.array_equal(perm, np.arange(self.n_points)):
             return
         per_point = [self.p_contact] if self.p_contact.shape[0] == self.n_points else []  # (1, 3) without planes
-        per_point += ([self.X0] if self.any_rigid else []) + self.trap_sorted()   # trapezoid.py's C_prev
+        per_point += ([self.X0] if self.any_rigid else []) + self.trap_sorted() + [self.p_cell][:int(self.cells_on)]
         for a in (self.x, self.v, self.F, self.C, self.Jp, self.p_mass, self.p_vol, self.body, self.fixed, *per_point):
             view = a.numpy()
             view[...] = view[perm]

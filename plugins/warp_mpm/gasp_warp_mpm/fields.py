@@ -321,6 +321,8 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     # field A's points without their affine momentum where they meet B (transfers.p2g, gasp_core PIC_AT_B)
     eng.p_pic = wp.zeros(eng.n_material if eng.flow_touch_on and core_fields.PIC_AT_B else 1, dtype=wp.int32, device=d)
     eng.allocate_touch(Ft, contact)   # the grounds' touched columns (touch.py)
+    from .cells import allocate_cells   # here: cells.py reads stencil.py, which reads this module
+    allocate_cells(eng, Ft)   # Grady's cells
 
 
 def body_channel(in_a, node_mu, a_mu) -> np.ndarray:
@@ -338,8 +340,9 @@ def body_channel(in_a, node_mu, a_mu) -> np.ndarray:
 
 def field_launches(eng, Ft) -> list:
     """The recorded launches of the contact and the clear (after P2G, before the grid update); none without it."""
-    if not eng.fields:
-        return grid_box_launches(eng, Ft)   # round 64: the grid update's own box (grid_box.py)
+    from .cells import cell_launches   # here: cells.py reads stencil.py, which reads this module
+    if not eng.fields:   # Grady's cells' contact and clear (cells.py), then round 64's grid box (grid_box.py)
+        return cell_launches(eng, Ft)[1] + grid_box_launches(eng, Ft)
     contact, clear = build_fields(Ft)
     ng, d = eng.n_grid, eng.device
     # the walls' grid rule reaches node indices below wall_in and above (hi - lo) / dx - wall_in (grid.py)

@@ -19,6 +19,7 @@ from gasp_core.mpm import grid_tables
 from gasp_core.mpm.materials import BRITTLE, P_ETA
 
 from .balance import build_mark
+from .cells import build_cell_reads
 from .contact import build_collider_contact, build_passive_hold
 from .fields import build_aflip_gather, build_field_reads
 from .forces import build_extras_struct
@@ -96,6 +97,7 @@ def build_p2g(Ft):
     mark_nodes = build_mark(Ft)
     Extras = build_extras_struct(Ft)
     scatter_vec, trap_return = build_scatter_vec(Ft), trapezoid_return(Ft, build_held_return(Ft))
+    cell_of, _side, scatter_cells, _gather = build_cell_reads(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def p2g(
@@ -113,7 +115,8 @@ def build_p2g(Ft):
         grid_mf: wp.array(dtype=Ft), flows: wp.array(dtype=wp.int32), grid_sv: wp.array(dtype=vec4),
         grid_vf: wp.array(dtype=Ft), in_a: wp.array(dtype=wp.int32), fixed: wp.array(dtype=wp.int32), rule: int,
         p_pic: wp.array(dtype=wp.int32), body_mu: wp.array(dtype=Ft), C_prev: wp.array(dtype=mat33),
-        C_guess: wp.array(dtype=mat33),
+        C_guess: wp.array(dtype=mat33), p_cell: wp.array(dtype=wp.int32), grid_ref: wp.array(dtype=wp.int32),
+        grid_cs: wp.array(dtype=vec4), grid_cd: wp.array(dtype=Ft),
     ):
         # F by C, return mapping, stress (docs/mpm.md), the scatter (wind: grid_g; flip: the APIC momentum alone to
         # grid_mv0, gasp_core.mpm.transfer); particle contact (planes: grounds, walls; colc: colliders): the normal
@@ -155,6 +158,9 @@ def build_p2g(Ft):
                     scatter_vec(grid_fn, idx0, n_grid, W, fn)
                     scatter_vec(grid_fv, idx0, n_grid, W, fv)
         scatter(grid_mv, idx0, n_grid, W, mom0, A, pm)
+        if grid_cs.shape[0] > 1:   # Grady's cells: the point's field at each node (cells.py)
+            scatter_cells(grid_cs, grid_cd, grid_ref, cell_of(p_cell[p]), wp.max(Jp[p], Ft(0.0)), idx0, n_grid, W,
+                          mom0, A, pm)
         if grid_mf.shape[0] > 1:
             if flows[body[p]] != 0:
                 scatter_scalar(grid_mf, idx0, n_grid, W, pm)
@@ -190,6 +196,7 @@ def build_g2p(Ft):
     field_offset_base, field_node_v = build_field_reads(Ft)
     aflip_gather = build_aflip_gather(Ft)
     Extras, gather, held_g2p = build_extras_struct(Ft), build_gather(Ft), build_held_g2p(Ft)
+    cell_of, _side, _scatter, cell_gather = build_cell_reads(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def g2p(
@@ -198,7 +205,8 @@ def build_g2p(Ft):
         lo: vec3, inv_dx: Ft, dt: Ft, n_grid: int, grid_v0: wp.array(dtype=vec3), alpha: Ft,
         grid_dv: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32),
         ex: Extras, mat_kind: wp.array(dtype=wp.int32), fixed_lo: wp.array(dtype=vec3), fixed_hi: wp.array(dtype=vec3),
-        dx: Ft, rule: int, grid_m: wp.array(dtype=Ft),
+        dx: Ft, rule: int, grid_m: wp.array(dtype=Ft), p_cell: wp.array(dtype=wp.int32),
+        grid_ref: wp.array(dtype=wp.int32), grid_cdv: wp.array(dtype=vec3),
     ):
         # with the two-field contact (gasp_warp_mpm.fields) each node's velocity plus the point's field's offset; with
         # rule a brittle point near a held box's face takes its mirror image's gradient
@@ -220,6 +228,12 @@ def build_g2p(Ft):
         idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
         off = field_offset_base(grid_dv, in_a, body[p], n_grid * nn)   # -1 without two fields (fields.py)
         new_v, B = gather(grid_v, grid_dv, off, W, idx0, n_grid)   # sum w g, sum w g (i, j, k)^T
+        if grid_cdv.shape[0] > 1:   # Grady's cells: each node's offset of the point's field (cells.py)
+            c = cell_of(p_cell[p])
+            if c >= 0:
+                dv, dB = cell_gather(grid_cdv, grid_ref, c, W, idx0, n_grid)
+                new_v = new_v + dv
+                B = B + dB
         # C = 4 inv_dx^2 sum w g ((i, j, k) - fx)^T dx = 4 inv_dx (B - new_v fx^T)
         Cn = (Ft(4.0) * inv_dx) * (B - wp.outer(new_v, fx))
         if rule % 2 != 0 and mat_kind[body[p]] == BRITTLE:   # the brittle held rule (held_rule.py)
