@@ -38,11 +38,6 @@ NO_CELL = -1
 MAX_CELLS = 256
 #: Cells narrower than this many grid cells hardly part (round 101's study: a ball of R 0.07 m, 2.0 cells, stayed whole).
 MIN_CELL_DX = 2.0
-#: The crack faces' Coulomb coefficient between two cells' fields (round 101's study, ``cells101.py --mu``).
-FACE_MU = 0.5
-#: The engines' node key: ``int(weight * KEY_SCALE) * 256 + cell``; the largest quadratic weight (0.75^3) times it
-#: times 256 stays under 2^31.
-KEY_SCALE = float(1 << 22)
 #: Engine feature: reads ``SimSetup.cells`` (module notes).
 FEATURE = "fracture_cells"
 

@@ -18,7 +18,7 @@ import numpy as np
 import taichi as ti
 
 from gasp_core.mpm.fields import MIN_FRACTION, MIN_GRADIENT
-from gasp_core.run.grady_cells import FACE_MU, KEY_SCALE
+from gasp_core.mpm.cells import FACE_MU, KEY_SCALE
 
 @ti.data_oriented
 class Cells:

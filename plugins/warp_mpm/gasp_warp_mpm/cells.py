@@ -21,7 +21,7 @@ import numpy as np
 import warp as wp
 
 from gasp_core.mpm.fields import MIN_FRACTION, MIN_GRADIENT
-from gasp_core.run.grady_cells import FACE_MU, KEY_SCALE
+from gasp_core.mpm.cells import FACE_MU, KEY_SCALE
 
 from .precision import MODULE_OPTIONS, build_types
 from .stencil import build_stencil
@@ -68,10 +68,13 @@ def build_cell_reads(Ft):
     @wp.func
     def cell_gather(grid_cdv: wp.array(dtype=vec3), grid_ref: wp.array(dtype=wp.int32), c: int, W: mat33, idx0: int,
                     n_grid: int):
-        # sum w dv and sum w dv (i, j, k)^T of the point's field's offsets (G2P's v and B, stencil.build_gather)
+        # sum w dv and sum w dv (i, j, k)^T of the point's field's offsets (G2P's v and B, stencil.build_gather);
+        # zero for a point in no cell (c < 0)
         nn = n_grid * n_grid
         dv = vec3(Ft(0.0))
         B = mat33()
+        if c < 0:
+            return dv, B
         for i in range(3):
             for j in range(3):
                 for k in range(3):

@@ -163,8 +163,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
         self.visc = viscosity_for(self, Ft) if viscous else None   # the run's schedule's (schedule/__init__.py)
 
     def _upload_boundaries(self, Ft) -> None:
-        """Walls' friction, grounds' (top node layer, friction, 0) and fixed regions' boxes as arrays; with the particle
-        contact its planes (grounds and walls, ``contact_planes``), coefficients and budgets."""
+        """Walls' friction, grounds' and fixed regions' boxes as arrays; the particle contact's planes and budgets."""
         fixed_lo, fixed_hi, ground, wall_mu = [], [], [], []
         contact = self._contact = contact_model(step_view(self.setup))
         reach, full = rule_models(contact)   # the grid rule's reach, and where it acts fully (contact.rule_models)
@@ -236,7 +235,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
                 self.grid_m, *cell_arrays(self, "g2p")]),
         ] + hold_launches(self, Ft, has_extras, ex) + self._rigid_launches(Ft)
         self._pre, fixes = balance_for(self, k, lo_v, dx, dt_f, ex)   # the balance's; then round 49's, held.py's
-        self._pre = cell_launches(self, Ft)[0] + self._pre   # Grady's cells: the nodes' reference cells (cells.py)
+        self._pre[:0] = cell_launches(self, Ft)[0]   # Grady's cells: the nodes' reference cells first (cells.py)
         self._launches[2:3] = (self.share_launches(Ft) + fixes + mirror_launches(self, Ft, has_extras, ex)
                                + collider_launches(self, Ft, self._launches[2]))   # round 63; G2P, round 66's points
         # after P2G: touch.py, fields.py (round 62's push before the fields' clear: pair_push.py; round 63's mark)

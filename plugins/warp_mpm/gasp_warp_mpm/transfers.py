@@ -89,7 +89,17 @@ def build_scatter(Ft):
 @functools.cache
 def build_p2g(Ft):
     """The P2G kernel ``p2g`` of scalar type ``Ft``: return mapping, stress, scatter. It is long because P2G is one
-    pass per point: the stress, the contacts' and the two fields' scatters."""
+    pass per point: the stress, the contacts' and the two fields' scatters.
+
+    F by C, return mapping, stress (docs/mpm.md), the scatter (wind: grid_g; flip: the APIC momentum alone to
+    grid_mv0, gasp_core.mpm.transfer); particle contact (planes: grounds, walls; colc: colliders): the normal impulses
+    join the momentum, their friction budget to grid_fb (walls or colliders: its normal to grid_fn, supports'
+    velocity to grid_fv; gasp_warp_mpm.contact); the contact per body: flowing bodies' (flows[b]) mass to grid_mf;
+    two-field contact (gasp_warp_mpm.fields): field A's (in_a[b]) momentum and mass to grid_sv, each field's volume
+    to grid_vf (A's at the node, B's n_grid^3 further); B's per-node friction (body_mu,
+    gasp_core.mpm.fields.node_friction): B's w m mu 2 n_grid^3 further; A's several angles (a_node_friction): A's w
+    m tan(phi) 3 n_grid^3 further, B's unnamed w m 4 further; Grady's cells (p_cell: cells.py) their field's
+    momentum and mass to grid_cs, each field's damage to grid_cd."""
     vec3, vec4, mat33 = build_types(Ft)
     in_grid, weights = build_stencil(Ft)
     scatter, scatter_wind, scatter_scalar = build_scatter(Ft)
@@ -118,14 +128,7 @@ def build_p2g(Ft):
         C_guess: wp.array(dtype=mat33), p_cell: wp.array(dtype=wp.int32), grid_ref: wp.array(dtype=wp.int32),
         grid_cs: wp.array(dtype=vec4), grid_cd: wp.array(dtype=Ft),
     ):
-        # F by C, return mapping, stress (docs/mpm.md), the scatter (wind: grid_g; flip: the APIC momentum alone to
-        # grid_mv0, gasp_core.mpm.transfer); particle contact (planes: grounds, walls; colc: colliders): the normal
-        # impulses join the momentum, their friction budget to grid_fb (walls or colliders: its normal to grid_fn,
-        # supports' velocity to grid_fv; gasp_warp_mpm.contact); the contact per body: flowing bodies' (flows[b]) mass
-        # to grid_mf; two-field contact (gasp_warp_mpm.fields): field A's (in_a[b]) momentum and mass to grid_sv, each
-        # field's volume to grid_vf (A's at the node, B's n_grid^3 further); B's per-node friction (body_mu,
-        # gasp_core.mpm.fields.node_friction): B's w m mu 2 n_grid^3 further; A's several angles (a_node_friction): A's
-        # w m tan(phi) 3 n_grid^3 further, B's unnamed w m 4 further
+        # the steps in build_p2g's notes
         p = wp.tid()
         X = (x[p] - lo) * inv_dx
         if not in_grid(X, n_grid):
@@ -229,11 +232,9 @@ def build_g2p(Ft):
         off = field_offset_base(grid_dv, in_a, body[p], n_grid * nn)   # -1 without two fields (fields.py)
         new_v, B = gather(grid_v, grid_dv, off, W, idx0, n_grid)   # sum w g, sum w g (i, j, k)^T
         if grid_cdv.shape[0] > 1:   # Grady's cells: each node's offset of the point's field (cells.py)
-            c = cell_of(p_cell[p])
-            if c >= 0:
-                dv, dB = cell_gather(grid_cdv, grid_ref, c, W, idx0, n_grid)
-                new_v = new_v + dv
-                B = B + dB
+            dv, dB = cell_gather(grid_cdv, grid_ref, cell_of(p_cell[p]), W, idx0, n_grid)
+            new_v = new_v + dv
+            B = B + dB
         # C = 4 inv_dx^2 sum w g ((i, j, k) - fx)^T dx = 4 inv_dx (B - new_v fx^T)
         Cn = (Ft(4.0) * inv_dx) * (B - wp.outer(new_v, fx))
         if rule % 2 != 0 and mat_kind[body[p]] == BRITTLE:   # the brittle held rule (held_rule.py)

@@ -1,0 +1,9 @@
+"""The engines' constants of Grady's cells parted at their faces (``gasp_core.run.grady_cells`` lays them; each MPM
+plugin's ``cells.py`` parts them; ``docs/fracture.md`` "Round 102: Grady's cells in the engines")."""
+
+#: The crack faces' Coulomb coefficient between two cells' fields (round 101's study, ``benchmarks/studies/cells101.py
+#: --mu``).
+FACE_MU = 0.5
+#: The node key is ``int(weight * KEY_SCALE) * 256 + cell``: the largest quadratic weight (0.75^3) times it, times 256,
+#: stays under 2^31, and a cell id takes the low 8 bits (``gasp_core.seam.setup_checks.check_cells``: at most 255).
+KEY_SCALE = float(1 << 22)
