@@ -26,6 +26,7 @@ import numpy as np
 
 from gasp_core.seam.engine import call_engine
 from gasp_core.seam.runner import EngineRun, FrameRecord, RunStats
+from gasp_core.run import grady_cells
 from gasp_core.run.fragments import break_check, cut_damage, split_body
 
 
@@ -163,6 +164,9 @@ def frames(info, setup, stats: RunStats, n_frames: int, start_frame: int = 0, st
     show on both sides of the cut; without one, each frame's damage after the break is the cut
     (:func:`gasp_core.run.fragments.cut_damage`). Errors as :class:`~gasp_core.seam.runner.EngineRun`."""
     bodies = breakable(setup)
+    if not bodies and grady_cells.applies(info, setup):   # a soft brittle body: Grady's cells at its landing
+        yield from grady_cells.frames(info, setup, stats, n_frames, start_frame, state, sleep, before, tracker, settle)
+        return
     with EngineRun(info, setup, stats, start_frame=start_frame, state=state, sleep=sleep, settle=settle) as run:
         if before is not None:
             before()

@@ -22,7 +22,8 @@ The study that chose this class is ``benchmarks/studies/cells101.py`` (a NumPy M
 
 Limits: a scene of one body only (two-field contact between bodies and the cells' fields would need a third field
 where they meet: not modelled, the cells are not laid); a ground below the body along -z gravity; the body is laid
-out once. Cells under about 2 grid cells across hardly part (:data:`MIN_CELL_DX`; a warning says so).
+out once. Cells are laid no narrower than :data:`MIN_CELL_DX` grid cells (narrower ones hardly part): where
+Grady's are, fewer and larger cells are laid, with a warning.
 """
 from __future__ import annotations
 
@@ -36,8 +37,9 @@ from gasp_core.run.fragments import break_check, cut_damage, split_body
 NO_CELL = -1
 #: The most cells the engines tell apart (their node key packs a cell id in 8 bits).
 MAX_CELLS = 256
-#: Cells narrower than this many grid cells hardly part (round 101's study: a ball of R 0.07 m, 2.0 cells, stayed whole).
-MIN_CELL_DX = 2.0
+#: Cells are laid no narrower than this many grid cells (round 101's study: under it they hardly part; a ball of R 0.07
+#: m at 7 m/s, 2.0 cells, stayed whole). Round 102: at 2.6 the 7 m/s ball's 5 cells stayed one piece on n_grid 28.
+MIN_CELL_DX = 2.3
 #: Engine feature: reads ``SimSetup.cells`` (module notes).
 FEATURE = "fracture_cells"
 
@@ -93,8 +95,8 @@ def lay(setup, x: np.ndarray, v: np.ndarray, seed: int = 0) -> tuple[np.ndarray,
     its :func:`landing` within the coming frame breaks it (:func:`break_check`): ``(cells, record)``, ``cells`` the
     ``SimSetup.cells`` (:func:`encode`) and ``record`` the split's figures (JSON-ready); None otherwise.
 
-    Warns (UserWarning) when the cells are under :data:`MIN_CELL_DX` grid cells across: they hardly part there, and
-    the pieces fall short of Grady's."""
+    Warns (UserWarning) when Grady's fragments are under :data:`MIN_CELL_DX` grid cells across: the cells are laid
+    at that size instead, fewer and larger than Grady's (the pieces fall short of his count)."""
     if not soft_brittle(setup):
         return None
     hit = landing(setup, x, v)
@@ -108,15 +110,18 @@ def lay(setup, x: np.ndarray, v: np.ndarray, seed: int = 0) -> tuple[np.ndarray,
     if not chk["breaks"]:
         return None
     spacing = float(np.cbrt(np.max(setup.p_vol[mat])))
-    cell = split_body(xm, mat, spacing, hit["impact_point"], chk["count"], chk["size"], seed)
+    size = max(chk["size"], MIN_CELL_DX * setup.dx)   # no cell under the grid's resolution (module notes)
+    count = int(min(chk["count"], max(2, round(float(setup.p_vol[mat].sum()) / size ** 3))))
+    cell = split_body(xm, mat, spacing, hit["impact_point"], count, size, seed)
     if cell.max() >= MAX_CELLS:   # split_body's parts beyond the engines' key: the smallest join cell 0's field
         cell = np.where(cell >= MAX_CELLS, cell % MAX_CELLS, cell)
     band = cut_damage(xm, cell, mat, spacing) > 0
     size_dx = chk["size"] / setup.dx
     if size_dx < MIN_CELL_DX:
         warnings.warn(f"brittle body: Grady's fragments at {hit['speed']:.3g} m/s are {size_dx:.2f} grid cells "
-                      f"across, under {MIN_CELL_DX}: they hardly part on this grid and the pieces fall short; "
-                      f"raise n_grid", UserWarning, stacklevel=2)
+                      f"across, under the {MIN_CELL_DX} the grid parts: laid as {count} cells of {MIN_CELL_DX} "
+                      f"instead of {chk['count']}, fewer and larger than Grady's; raise n_grid to resolve them",
+                      UserWarning, stacklevel=2)
     record = {"speed": round(hit["speed"], 4), "impact_point": [round(float(c), 5) for c in hit["impact_point"]],
               "cells": int(cell.max() + 1), "size": chk["size"], "size_dx": round(size_dx, 3),
               "band": round(float(band[mat].mean()), 4)}
@@ -130,3 +135,58 @@ def laid(setup, seed: int = 0):
     if out is None:
         return setup, None
     return setup.replace(cells=out[0]), out[1]
+
+
+def applies(info, setup) -> bool:
+    """Whether a run lays cells on ``setup`` with engine ``info``: :func:`soft_brittle`, and the engine has the feature
+    :data:`FEATURE` (the others run the body as before)."""
+    return soft_brittle(setup) and FEATURE in info.capabilities.features
+
+
+def frames(info, setup, stats, n_frames: int, start_frame: int = 0, state: dict | None = None, sleep: bool = False,
+           before=None, tracker=None, settle: bool = False):
+    """The run's checked frames (:meth:`gasp_core.seam.runner.EngineRun.frames`) of a scene that :func:`applies`, its
+    body laid out in cells at the frame its landing is predicted in (module notes): at the start, the scene's engine
+    is built with them; later, after the frame before the landing, a new engine is built at that frame's positions
+    and velocities with them (as the stiff route's fragments are; the body's ``F`` and ``C`` start again from the
+    identity and zero, which a body in free fall nearly has). A body already damaged then is not laid out.
+    ``stats.fragments`` gains the record (``route`` "cells", ``frame`` the last frame before it, :func:`lay`'s
+    figures); ``tracker`` (:class:`gasp_core.run.pieces.PieceTracker`) is told the cells. After a rebuild the frames
+    carry no engine state (no checkpoint: the engine is not the scene's). Errors as
+    :class:`~gasp_core.seam.runner.EngineRun`."""
+    from gasp_core.seam.engine import call_engine
+    from gasp_core.seam.runner import EngineRun, FrameRecord
+
+    def laid_at(frame, s, out):
+        stats.fragments = [*stats.fragments, {"route": "cells", "frame": frame, **out[1]}]
+        if tracker is not None:
+            tracker.split_cells(out[0])
+        return s.replace(cells=out[0])
+
+    out = lay(setup, setup.x, setup.v) if not start_frame else None
+    if out is not None:
+        setup = laid_at(0, setup, out)
+    with EngineRun(info, setup, stats, start_frame=start_frame, state=state, sleep=sleep, settle=settle) as run:
+        if before is not None:
+            before()
+        if setup.cells is not None:
+            yield from run.frames(n_frames)
+            return
+        for rec in run.frames(n_frames):
+            yield rec
+            if rec.frame >= n_frames:
+                return
+            v = np.asarray(call_engine(info, "velocities", run.engine.velocities), np.float64)
+            out = lay(setup, rec.x, v)
+            if out is not None and "damage" in info.capabilities.features:
+                d = np.asarray(call_engine(info, "damage", run.engine.damage), np.float64)
+                out = out if float(d.max(initial=0.0)) <= 0.0 else None
+            if out is not None:
+                break
+        else:
+            return
+    k0 = rec.frame
+    new = laid_at(k0, setup.replace(x=np.array(rec.x), v=v, C=None), out)
+    with EngineRun(info, new, stats, sleep=sleep) as run:
+        for r in run.frames(n_frames - k0):
+            yield FrameRecord(r.frame + k0, r.x, r.wall_s, None)
