@@ -27,7 +27,7 @@ import numpy as np
 from gasp_core.seam.engine import call_engine
 from gasp_core.seam.runner import EngineRun, FrameRecord, RunStats
 from gasp_core.run import grady_cells
-from gasp_core.run.fragments import break_check, cut_damage, split_body
+from gasp_core.run.fragments import break_check, cut_damage, ground_hit, split_body
 
 
 def breakable(setup) -> list[int]:
@@ -105,20 +105,6 @@ def broken_restitution(hit: dict) -> float:
     as a plastic impact's restitution falls above its yield velocity (Johnson 1985, "Contact Mechanics", 11.4)."""
     v_break = hit["tensile_strength"] / hit["impedance"]
     return float(hit["restitution"] * min(1.0, v_break / max(hit["impact_speed"], 1e-12)))
-
-
-def ground_hit(height: float, vz: float, g: float, dt: float) -> float | None:
-    """The speed (m/s) at which a body whose lowest point is ``height`` (m) over a ground, moving at ``vz`` (m/s,
-    up positive) under gravity ``g`` (m/s^2, downwards positive) meets it within ``dt`` (s) in free fall; None when
-    it does not (``height + vz t - g t^2 / 2 = 0`` has no root in ``[0, dt]``)."""
-    if height < 0.0 or not np.isfinite(height):
-        return None
-    disc = vz * vz + 2.0 * g * height
-    if disc < 0.0:
-        return None
-    v_hit = float(np.sqrt(disc))
-    t = (vz + v_hit) / g if g > 0.0 else (height / -vz if vz < 0.0 else np.inf)
-    return v_hit if t <= dt else None
 
 
 def fragmented(setup, x: np.ndarray, v: np.ndarray, hits: list[dict], seed: int = 0):

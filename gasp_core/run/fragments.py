@@ -98,6 +98,20 @@ def break_check(m, mass: float, volume: float, length: float, v_n: float) -> dic
             "energy": energy, "crack_energy": crack(count) if breaks else 0.0}
 
 
+def ground_hit(height: float, vz: float, g: float, dt: float) -> float | None:
+    """The speed (m/s) at which a body whose lowest point is ``height`` (m) over a ground, moving at ``vz`` (m/s,
+    up positive) under gravity ``g`` (m/s^2, downwards positive) meets it within ``dt`` (s) in free fall; None when
+    it does not (``height + vz t - g t^2 / 2 = 0`` has no root in ``[0, dt]``)."""
+    if height < 0.0 or not np.isfinite(height):
+        return None
+    disc = vz * vz + 2.0 * g * height
+    if disc < 0.0:
+        return None
+    v_hit = float(np.sqrt(disc))
+    t = (vz + v_hit) / g if g > 0.0 else (height / -vz if vz < 0.0 else np.inf)
+    return v_hit if t <= dt else None
+
+
 def split_body(x: np.ndarray, material: np.ndarray, spacing: float, impact: np.ndarray, count: int, size: float,
                seed: int = 0) -> np.ndarray:
     """Each point's fragment (module notes), shape (n,), int64, ``0 .. k - 1`` numbered by mass share (largest 0).

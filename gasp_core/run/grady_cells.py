@@ -2,7 +2,7 @@
 speed"; ``docs/fracture.md`` "Round 102: Grady's cells in the engines").
 
 A soft ``brittle`` body (one the grid simulates, not the rigid route of :mod:`gasp_core.run.fragment_run`) that
-a ground will meet within the coming frame in free fall (:func:`gasp_core.run.fragment_run.ground_hit`) at a speed
+a ground will meet within the coming frame in free fall (:func:`gasp_core.run.fragments.ground_hit`) at a speed
 that breaks it (:func:`gasp_core.run.fragments.break_check`: the plane-wave stress against ``f_t``, Grady's
 fragment size against the energy) is laid out in the stiff route's fragments, here called cells
 (:func:`gasp_core.run.fragments.split_body`: Voronoi cells of Grady's size, seeded around the impact point). The
@@ -31,7 +31,7 @@ import warnings
 
 import numpy as np
 
-from gasp_core.run.fragments import break_check, cut_damage, split_body
+from gasp_core.run.fragments import break_check, cut_damage, ground_hit, split_body
 
 #: ``SimSetup.cells`` of a point not laid out in cells.
 NO_CELL = -1
@@ -72,9 +72,8 @@ def soft_brittle(setup) -> bool:
 
 def landing(setup, x: np.ndarray, v: np.ndarray) -> dict | None:
     """The body's landing within the coming frame, as its free fall from ``x``, ``v`` (n, 3) predicts it
-    (:func:`gasp_core.run.fragment_run.ground_hit` from its lowest material point over the highest ground below
+    (:func:`gasp_core.run.fragments.ground_hit` from its lowest material point over the highest ground below
     it, its mean vertical speed): ``{"speed": m/s, "impact_point": (3,)}``, or None."""
-    from gasp_core.run.fragment_run import ground_hit
     mat = setup.material_mask
     xm, m = np.asarray(x, np.float64)[mat], setup.p_mass[mat]
     z0 = float(xm[:, 2].min())

@@ -9,6 +9,7 @@ Higham 1986 (polar decomposition), Golub & Van Loan (Jacobi eigenvalues), Rankin
 import taichi as ti
 
 # Material codes and the per-body parameter columns (``MPMSolver.mat``) are gasp_core.mpm.materials'.
+from gasp_core.mpm.cells import OPENING as CELL_OPENING
 from gasp_core.mpm.materials import (BRITTLE, JELLY, LIQUID, METAL, NEO_HOOKEAN, P_ALPHA, P_DMU, P_FT, P_HARDENING, P_IK,
                                          P_CELLS, P_K, P_LAM, P_MU, P_SF, P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD,
                                          PLASTICINE, SAND, SNOW, VON_MISES_RADIUS)
@@ -322,6 +323,10 @@ class Constitutive:
                 else:   # in Grady's cells (P_CELLS) a broken point keeps its tension-free stress (cells.py)
                     sf = self.band_sf(p, U, eps, mu, lam, prm[P_FT], prm[P_SF])   # round 33's band weight
                     tau, Jp = self.brittle_tau(U, eps, mu, lam, prm[P_FT], sf, Jp)
+                    if Jp >= 1.0 and prm[P_CELLS] != 0.0:   # its opening kept in F up to a stretch of 2 (cells.py)
+                        eps = ti.min(eps, ti.static(CELL_OPENING))
+                        F = self.udvt(U, ti.exp(eps), V)
+                        tau, Jp = self.brittle_tau(U, eps, mu, lam, prm[P_FT], sf, Jp)
         if ti.static(LIQUID in self.kinds):
             if kind == LIQUID:
                 J = F.determinant()

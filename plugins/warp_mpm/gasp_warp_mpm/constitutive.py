@@ -12,6 +12,7 @@ import functools
 import warp as wp
 
 # Material codes and the columns of the per-body parameter table ``mat_par`` are gasp_core.mpm.materials'.
+from gasp_core.mpm.cells import OPENING as CELL_OPENING
 from gasp_core.mpm.materials import (BRITTLE, JELLY, METAL, NEO_HOOKEAN, P_ALPHA, P_DMU, P_FT, P_HARDENING, P_IK, P_K,
                                          P_CELLS, P_LAM, P_MU, P_SF, P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE,
                                          SAND, SNOW, VON_MISES_RADIUS)
@@ -313,6 +314,11 @@ def build_brittle_return(Ft):
                 dt = Ft(1.0) - ft * (sf - smax) / (smax * (sf - ft))
             d = wp.max(d, dt)
         Jp[p] = d
+        if d >= Ft(1.0) and mat_par[b, P_CELLS] != Ft(0.0):   # broken in Grady's cells: its opening kept in F up to
+            em = Ft(CELL_OPENING)   # a stretch of 2, its cell's width; the fields carry the contact beyond (cells.py)
+            eps = vec3(wp.min(eps[0], em), wp.min(eps[1], em), wp.min(eps[2], em))
+            F_trial = U * wp.diag(vec3(wp.exp(eps[0]), wp.exp(eps[1]), wp.exp(eps[2]))) * wp.transpose(V)
+            s = Ft(2.0) * mu * eps + vec3(lam * (eps[0] + eps[1] + eps[2]))
         g = vec3(Ft(1.0))   # the factor on each principal stress: 1 - d in tension, 1 in compression
         if s[0] > Ft(0.0):
             g[0] = Ft(1.0) - d
