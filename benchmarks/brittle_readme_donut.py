@@ -102,30 +102,37 @@ def placed_setup(engine: str, n_grid: int, material):
     return donut_setup(engine, n_grid, material, placed=True)
 
 
-def counted(engine: str, setup, frames: int) -> dict:
-    """Run ``setup`` ``frames`` frames on ``engine``; the pieces from the last frame alone (module notes), and
+def counted(engine: str, setup, frames: int, cells: bool = True) -> dict:
+    """Run ``setup`` ``frames`` frames on ``engine`` as a run does (``gasp_core.run.fragment_run.frames``: with
+    ``cells``, a soft brittle body laid out in Grady's cells at its landing, ``gasp_core.run.grady_cells``; without,
+    the engine alone, the class before round 102); the pieces from the last frame alone (module notes), and
     ``swell``: the cells of ``dx`` its points occupy over those at rest (pieces that come apart keep theirs; dust
     and a swelling cloud multiply them)."""
+    from contextlib import closing
+    from gasp_core.run import fragment_run
     from gasp_core.run.pieces import LINK_RADIUS
-    from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import engines
+    from gasp_core.seam.runner import RunStats
     from gasp_core.testing.pieces_count import FramePieces
     mat = setup.p_vol > 0
     m = setup.p_mass[mat]
     ref = FramePieces(setup.x[mat], m, LINK_RADIUS * float(np.cbrt(setup.p_vol[mat].max())), setup.dx)
-    e = build_engine(engines()[engine], setup)
-    try:
-        for _ in range(frames):
-            e.step_frame()
-        x, d = np.asarray(e.positions(), np.float64)[mat], np.asarray(e.damage(), np.float64)[mat]
-    finally:
-        e.close()
+    info, stats = engines()[engine], RunStats()
+    if not cells:   # the engine without the feature: the body runs as one soft body
+        caps = dataclasses.replace(info.capabilities, features=info.capabilities.features - {"fracture_cells"})
+        info = dataclasses.replace(info, capabilities=caps)
+    with closing(fragment_run.frames(info, setup, stats, frames)) as recs:
+        for rec in recs:
+            x = np.asarray(rec.x, np.float64)
+    x, d = x[mat], np.asarray(stats.damage, np.float64)[mat]
+    out_cells = [f for f in stats.fragments if f.get("route") == "cells"]
     parts = ref.masses(x) / m.sum()
     return {"pieces_1": int((parts >= SHARE).sum()), "largest": float(parts[0]),
             "in_pieces": float(parts[parts >= SHARE].sum()),
             "swell": occupied(x, setup.dx) / occupied(setup.x[mat], setup.dx),
             "crumbs": float(parts[parts < CRUMB].sum()), "broken_through": float(np.average(d >= 1.0, weights=m)),
-            "z_min": float(x[:, 2].min()), "points": int(mat.sum())}
+            "z_min": float(x[:, 2].min()), "points": int(mat.sum()),
+            "cells": out_cells[0]["cells"] if out_cells else 0}
 
 
 def main(argv=None) -> int:

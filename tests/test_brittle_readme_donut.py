@@ -13,7 +13,9 @@ frame 5) its parts are counted from the frames alone (``benchmarks/brittle_readm
   cells they fill, give or take the landing's squash and the cells between them; a cloud of grains multiplies them,
   which the count of parts alone misses when the grains drift apart by less than ``dx`` each).
 
-Measured (docs/fracture.md), with the crack band ``dx`` (round 31): one piece at n_grid 48 and 64 (9.5 and 6.2 % of
+Round 102: a run lays the donut out in Grady's cells at its landing (``gasp_core.run.grady_cells``) and the engines
+part them; it ends in 3 pieces at n_grid 48 and 64 on both engines (the pieces line, met). Before, measured
+(docs/fracture.md), with the crack band ``dx`` (round 31): one piece at n_grid 48 and 64 (9.5 and 6.2 % of
 it broken through), 0.999 and 0.994 of the mass in it, swell 1.24 and 1.21: not dust, but not in pieces either (the
 two-piece line is a strict xfail); in the band ``1.5 dx`` of before it was 2 and 4 pieces, 0.94 and 0.87 of the mass
 in the largest, 3.2 and 3.1 % in crumbs, swell 1.55 and 1.44. Catch: at the defaults before round 31 (f_t 1 kPa, G_f 10 J/m^2) the same
@@ -77,11 +79,13 @@ def test_the_check_refuses_dust_and_a_whole_body_and_takes_pieces():
     assert not_dust(row([0.98, 0.02], swell=70.0))                                  # the cage: one "piece"
 
 
-def run(engine: str, n_grid: int, defaults: str, placed: bool = False, surface: str | None = None) -> dict:
+def run(engine: str, n_grid: int, defaults: str, placed: bool = False, surface: str | None = None,
+        cells: bool = True) -> dict:
+    """``benchmarks/brittle_readme_donut.counted`` as a run goes (``cells``: Grady's cells laid at the landing)."""
     sys.path.insert(0, str(ROOT / "benchmarks"))
     import brittle_readme_donut as bd
     setup = bd.donut_setup(engine, n_grid, bd.brittle(defaults), placed=placed, surface=surface)
-    return bd.counted(engine, setup, bd.PLACED_FRAMES if placed else FRAMES)
+    return bd.counted(engine, setup, bd.PLACED_FRAMES if placed else FRAMES, cells)
 
 
 @pytest.mark.slow
@@ -94,28 +98,36 @@ def test_the_brittle_readme_donut_from_1_m_is_not_dust(engine, n_grid):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="not met since round 31's crack band dx: at the defaults (f_t 10 kPa, G_f 50 "
-                                       "J/m^2) the donut cracks (18.8 and 13.1 % of it broken through at n_grid 48 "
-                                       "and 64, round 44) but is one piece after 4 frames; it comes apart from a "
-                                       "1.27 m drop (5 m/s: 2 and 8 pieces; benchmarks/brittle_donut_speed.py). "
-                                       "Round 45 (benchmarks/brittle_donut_arrest.py, n_grid 48, both engines): the "
-                                       "arrest is physical: the squash softens 94 % of the ring at once (17 cuts' "
-                                       "worth of G_f dissipated, 5 % of it in the two most broken sections), the "
-                                       "cracks open as hinges (70 % of the links cut, up to 18 dx) and stop when the "
-                                       "squash ends: the tips fall below f_t, the tension near them (0.035 J at 53 "
-                                       "ms) is 6-8 times short of G_f times their ligament (0.214 J); the softening "
-                                       "law holds to 1.0000 (docs/fracture.md)")
 @pytest.mark.parametrize("n_grid", [48, 64])
-def test_the_brittle_readme_donut_from_1_m_ends_in_pieces(n_grid):
-    r = run("taichi_mpm", n_grid, "new")
+@pytest.mark.parametrize("engine", ["taichi_mpm", "warp_mpm"])
+def test_the_brittle_readme_donut_from_1_m_ends_in_pieces(engine, n_grid):
+    """Round 102 (``docs/fracture.md`` "Round 102: Grady's cells in the engines"): laid out in Grady's cells at its
+    landing (4 cells, 8.8 and 11.8 grid cells across) it ends in 3 pieces at n_grid 48 and 64, 0.997 and 0.991 of the
+    mass in them, the largest 0.46 and 0.49, swell 1.08 and 1.10, both engines alike. Before (rounds 31-101) it was
+    one cracked piece: the cracks arrest when the squash ends (round 45)."""
+    needs_package(f"gasp_{engine}")
+    r = run(engine, n_grid, "new")
     assert not not_dust(r), (not_dust(r), r)
+
+
+@pytest.mark.slow
+def test_catch_an_engine_whose_cells_never_part_leaves_the_donut_whole(monkeypatch):
+    """The pieces line's catch: with the cells' contact off (``tests/test_grady_cells.py``'s broken engine) the
+    donut is one piece."""
+    needs_package("gasp_warp_mpm")
+    from test_grady_cells import _glued
+    _glued(monkeypatch, "warp_mpm")
+    r = run("warp_mpm", 48, "new")
+    assert not_dust(r) and r["pieces_1"] == 1, r
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("engine", ["taichi_mpm", "warp_mpm"])
 def test_catch_at_the_old_defaults_it_is_dust(engine):
+    """The check's catch on an engine without Grady's cells (the class before round 102): at the old defaults the
+    landing is dust (24.8 % in crumbs, swell 2.48 on warp_mpm at n_grid 48). Laid out in cells it is 10 pieces."""
     needs_package(f"gasp_{engine}")
-    r = run(engine, 48, "old")
+    r = run(engine, 48, "old", cells=False)
     assert not_dust(r), r
 
 
@@ -131,16 +143,19 @@ def test_the_donut_placed_1_m_up_in_the_default_domain_is_not_dust(engine):
 @pytest.mark.slow
 def test_catch_the_placed_donut_as_a_material_skin_is_a_cloud():
     """Its catch: the representation before round 34 (``surface = "material"``: no interior point, all of its mass on
-    its 136 872 skin points) is broken through everywhere and fills about 71 times the cells it filled at rest."""
+    its 136 872 skin points) is broken through everywhere and fills about 71 times the cells it filled at rest, on an
+    engine without Grady's cells (round 102: laid out in 3 cells it stays whole, 4 % broken through)."""
     needs_package("gasp_taichi_mpm")
-    r = run("taichi_mpm", 64, "new", placed=True, surface="material")
+    r = run("taichi_mpm", 64, "new", placed=True, surface="material", cells=False)
     assert not_dust(r, 1) and r["swell"] > 10 * MAX_SWELL, r
 
 
 @pytest.mark.slow
 @pytest.mark.xfail(strict=True, reason="not met: placed 1 m up in the default domain (dx 3.4 cm, the donut 2.3 crack "
                                        "bands tall, 351 fill points under a passive skin) it ends as one cracked "
-                                       "piece (16 % broken through, 0.99 times the cells at rest; docs/fracture.md)")
+                                       "piece (16 % broken through, 0.99 times the cells at rest; docs/fracture.md); "
+                                       "round 102: laid out in Grady's cells at its landing (4 cells of 2.3 grid "
+                                       "cells, under Grady's 2.25) still one piece at frame 24 (4 % broken through)")
 def test_the_donut_placed_1_m_up_in_the_default_domain_ends_in_pieces():
     needs_package("gasp_taichi_mpm")
     r = run("taichi_mpm", 64, "new", placed=True)
