@@ -71,5 +71,5 @@ def test_not_met_rows_are_strict_xfails_and_met_rows_are_not():
 
 def test_the_check_reads_a_strict_xfail():
     """Known answers from the suite: a strict xfail, and a plain test beside it."""
-    assert strict_xfail("tests/test_brittle_readme_donut.py", "test_the_brittle_readme_donut_from_1_m_ends_in_pieces")
+    assert strict_xfail("tests/test_brittle_readme_donut.py", "test_the_donut_placed_1_m_up_in_the_default_domain_ends_in_pieces")
     assert not strict_xfail("tests/test_brittle_readme_donut.py", "test_the_brittle_readme_donut_from_1_m_is_not_dust")
