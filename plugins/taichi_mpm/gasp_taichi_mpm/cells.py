@@ -12,13 +12,15 @@ do not. G2P reads a split point's velocity at a node as the grid's plus its fiel
 A cell's inside (``SimSetup.cells`` <= -2) starts at ``Jp`` -1 and never damages, and a broken point of a body in
 cells keeps its tension-free stress (``P_CELLS``; ``gasp_core.mpm.materials``, constitutive.py).
 
-Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver` (its ``x``, ``Jp``, ``grid_mv``, ``touched_box``, ``held_node``).
+Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver` (its ``x``, ``Jp``, ``grid_mv``, ``touched_box``).
 """
 import numpy as np
 import taichi as ti
 
 from gasp_core.mpm.fields import MIN_FRACTION, MIN_GRADIENT
 from gasp_core.mpm.cells import FACE_MU, KEY_SCALE
+from gasp_core.seam import SceneError
+
 
 @ti.data_oriented
 class Cells:
@@ -32,14 +34,14 @@ class Cells:
 
         Raises
         ------
-        ValueError
+        SceneError
             With the two-field contact between bodies (a scene of one body only: ``gasp_core.run.grady_cells``).
         """
         if cells is None:
             return
         cells = np.asarray(cells)[order]
         if self.fields:
-            raise ValueError("SimSetup.cells: Grady's cells need a scene of one body (no two-field contact)")
+            raise SceneError("SimSetup.cells: Grady's cells need a scene of one body (no two-field contact)")
         ng, cap = self.n_grid, self.x.shape[0]
         self.p_cell = ti.field(ti.i32, shape=cap)
         buf = np.full(cap, -1, np.int32)

@@ -22,6 +22,7 @@ import warp as wp
 
 from gasp_core.mpm.fields import MIN_FRACTION, MIN_GRADIENT
 from gasp_core.mpm.cells import FACE_MU, KEY_SCALE
+from gasp_core.seam import SceneError
 
 from .precision import MODULE_OPTIONS, build_types
 from .stencil import build_stencil
@@ -31,6 +32,11 @@ from .stencil import build_stencil
 def build_cell_reads(Ft):
     """``(cell_of, cell_side, scatter_cells, cell_gather)``, the P2G and G2P parts for scalar type ``Ft``."""
     vec3, vec4, mat33 = build_types(Ft)
+
+    @wp.func
+    def node_offset(i: int, j: int, k: int):
+        # the stencil node's (i, j, k) as a vector of Ft
+        return vec3(Ft(float(i)), Ft(float(j)), Ft(float(k)))
 
     @wp.func
     def cell_of(c: int):
@@ -61,7 +67,7 @@ def build_cell_reads(Ft):
                     side = cell_side(grid_ref, c, node)
                     if side == 0:
                         w = W[i, 0] * W[j, 1] * W[k, 2]
-                        mv = mom0 + A * vec3(Ft(i), Ft(j), Ft(k))
+                        mv = mom0 + A * node_offset(i, j, k)
                         wp.atomic_add(grid_cs, node, vec4(w * mv[0], w * mv[1], w * mv[2], w * pm))
                     wp.atomic_max(grid_cd, side * nn * n_grid + node, d)
 
@@ -81,7 +87,7 @@ def build_cell_reads(Ft):
                     node = idx0 + i * nn + j * n_grid + k
                     g = (W[i, 0] * W[j, 1] * W[k, 2]) * grid_cdv[cell_side(grid_ref, c, node) * nn * n_grid + node]
                     dv = dv + g
-                    B = B + wp.outer(g, vec3(Ft(i), Ft(j), Ft(k)))
+                    B = B + wp.outer(g, node_offset(i, j, k))
         return dv, B
 
     return cell_of, cell_side, scatter_cells, cell_gather
@@ -181,7 +187,7 @@ def allocate_cells(eng, Ft) -> None:
     cells = eng.setup.cells
     eng.cells_on = cells is not None
     if eng.cells_on and eng.fields:
-        raise ValueError("SimSetup.cells: Grady's cells need a scene of one body (no two-field contact)")
+        raise SceneError("SimSetup.cells: Grady's cells need a scene of one body (no two-field contact)")
     k, d = eng.k, eng.device
     n = eng.n_grid ** 3 if eng.cells_on else 1
     buf = np.asarray(cells, np.int32)[eng._order] if eng.cells_on else np.full(1, -1, np.int32)
