@@ -17,6 +17,7 @@ from gasp_core.seam.config import Preset, config_options, from_option, option
 from gasp_core.seam.options import Option
 from gasp_core.mpm.contact import BALANCE, CONTACT
 from gasp_core.mpm.fields import FIELDS
+from gasp_core.mpm.cells import CELLS
 from gasp_core.mpm.stress_at import STRESS_AT, STRESS_PASSES
 from gasp_core.mpm.substeps import CFL, CFL_RULE, CFL_RULES, MAX_SUBSTEPS, PASSIVE_EVERY
 from gasp_core.mpm.transfer import FLIP, TRANSFER_DAMPING
@@ -79,6 +80,7 @@ class MPMConfig(GridConfig):
     contact_fields: bool = from_option(FIELDS)
     stress_at: str = from_option(STRESS_AT)
     stress_passes: int = from_option(STRESS_PASSES)
+    fracture_cells: bool = from_option(CELLS)
     PRESETS: ClassVar = MPM_PRESETS
 
 

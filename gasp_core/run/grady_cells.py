@@ -137,9 +137,10 @@ def laid(setup, seed: int = 0):
 
 
 def applies(info, setup) -> bool:
-    """Whether a run lays cells on ``setup`` with engine ``info``: :func:`soft_brittle`, and the engine has the feature
-    :data:`FEATURE` (the others run the body as before)."""
-    return soft_brittle(setup) and FEATURE in info.capabilities.features
+    """Whether a run lays cells on ``setup`` with engine ``info``: :func:`soft_brittle`, the engine has the feature
+    :data:`FEATURE` (the others run the body as before) and its option ``fracture_cells`` is not false."""
+    return (soft_brittle(setup) and FEATURE in info.capabilities.features
+            and setup.options.get("fracture_cells", True) is not False)
 
 
 def frames(info, setup, stats, n_frames: int, start_frame: int = 0, state: dict | None = None, sleep: bool = False,
