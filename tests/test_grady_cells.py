@@ -1,8 +1,8 @@
 """Grady's cells laid on a soft brittle body at its landing and parted at their faces by both MLS-MPM engines (issue
 66 item 4; ``gasp_core.run.grady_cells``; ``docs/fracture.md`` "Round 102: Grady's cells in the engines").
 
-- The layout: none where the landing does not break the body (1 m/s), more cells the faster (2, 2, 8, 11 at 2, 4,
-  7, 10 m/s on the pieces family's ball at n_grid 32), laid no narrower than 2.3 grid cells with a warning (8 at 10
+- The layout: none where the landing does not break the body (1 m/s) or Grady's fragments do not fit it twice (2
+  m/s), more cells the faster (2, 8, 11 at 4, 7, 10 m/s on the pieces family's ball at n_grid 32), laid no narrower than 2.3 grid cells with a warning (8 at 10
   m/s on n_grid 28, where Grady's are 1.8 cells across), ``SimSetup.cells`` checked.
 - The pieces: a link between two cells is cut once it opens past its gap, with no damage read; a link inside a cell
   is not.
@@ -47,7 +47,7 @@ def test_the_layout_grows_with_the_landing_speed_and_none_where_it_does_not_brea
         s, rec = _laid(v, 32)
         counts.append(0 if rec is None else rec["cells"])
         assert (s.cells is None) == (rec is None)
-    assert counts[0] == 0 and all(b >= a for a, b in zip(counts, counts[1:])) and counts[-1] > 2 * counts[1], counts
+    assert counts[:2] == [0, 0] and all(b >= a for a, b in zip(counts, counts[1:])) and counts[-1] > 4 * counts[2], counts
     s, _ = _laid(7.0, 28)
     cell, inside = grady_cells.decode(s.cells)
     assert cell.min() == 0 and 0.1 < inside.mean() < 0.5   # the band: the points beside another cell

@@ -40,6 +40,10 @@ MAX_CELLS = 256
 #: Cells are laid no narrower than this many grid cells (round 101's study: under it they hardly part; a ball of R 0.07
 #: m at 7 m/s, 2.0 cells, stayed whole). Round 102: at 2.6 the 7 m/s ball's 5 cells stayed one piece on n_grid 28.
 MIN_CELL_DX = 2.3
+#: The cells are laid where Grady's fragments fit the body at least this many times (``V / s^3``): under it (the
+#: guitar dropped 0.3 m: one fragment of 1 m for a body of 0.01 m^3) fragmentation does not set where it breaks, its
+#: structure's stress does, and ``break_check``'s two fragments would be two arbitrary cells that never crack inside.
+MIN_FRAGMENTS = 2.0
 #: Engine feature: reads ``SimSetup.cells`` (module notes).
 FEATURE = "fracture_cells"
 
@@ -106,8 +110,8 @@ def lay(setup, x: np.ndarray, v: np.ndarray, seed: int = 0) -> tuple[np.ndarray,
     m = setup.materials[0]
     chk = break_check(m, float(setup.p_mass.sum()), float(setup.p_vol[mat].sum()), float(np.ptp(xm[mat, 2])),
                       hit["speed"])
-    if not chk["breaks"]:
-        return None
+    if not chk["breaks"] or float(setup.p_vol[mat].sum()) < MIN_FRAGMENTS * chk["size"] ** 3:
+        return None   # Grady's fragments do not fit the body twice: where it breaks is its structure's stress
     spacing = float(np.cbrt(np.max(setup.p_vol[mat])))
     size = max(chk["size"], MIN_CELL_DX * setup.dx)   # no cell under the grid's resolution (module notes)
     count = int(min(chk["count"], max(2, round(float(setup.p_vol[mat].sum()) / size ** 3))))
@@ -152,7 +156,8 @@ def frames(info, setup, stats, n_frames: int, start_frame: int = 0, state: dict 
     identity and zero, which a body in free fall nearly has). A body already damaged then is not laid out.
     ``stats.fragments`` gains the record (``route`` "cells", ``frame`` the last frame before it, :func:`lay`'s
     figures); ``tracker`` (:class:`gasp_core.run.pieces.PieceTracker`) is told the cells. After a rebuild the frames
-    carry no engine state (no checkpoint: the engine is not the scene's). Errors as
+    carry no engine state (no checkpoint: the engine is not the scene's; a resumed run starts before the landing and
+    lays them again), while cells laid at the start are laid again on resuming. Errors as
     :class:`~gasp_core.seam.runner.EngineRun`."""
     from gasp_core.seam.engine import call_engine
     from gasp_core.seam.runner import EngineRun, FrameRecord
@@ -163,7 +168,7 @@ def frames(info, setup, stats, n_frames: int, start_frame: int = 0, state: dict 
             tracker.split_cells(out[0])
         return s.replace(cells=out[0])
 
-    out = lay(setup, setup.x, setup.v) if not start_frame else None
+    out = lay(setup, setup.x, setup.v)   # a resumed run lays them again: a function of the setup alone
     if out is not None:
         setup = laid_at(0, setup, out)
     with EngineRun(info, setup, stats, start_frame=start_frame, state=state, sleep=sleep, settle=settle) as run:
