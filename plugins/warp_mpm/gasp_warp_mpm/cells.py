@@ -198,6 +198,12 @@ def allocate_cells(eng, Ft) -> None:
     eng.grid_cdv = wp.zeros(2 * n if eng.cells_on else 1, dtype=k.vec3, device=d)
 
 
+def follow_order(eng) -> None:
+    """``eng.p_cell`` in ``eng._order`` again (after a restored state's order, ``engine.restore_extras``)."""
+    if eng.cells_on:
+        eng.p_cell.assign(np.asarray(eng.setup.cells, np.int32)[eng._order])
+
+
 def cell_arrays(eng, which: str) -> list:
     """The cells' inputs of ``transfers.p2g`` (``which`` "p2g") or ``transfers.g2p`` ("g2p")."""
     if which == "p2g":

@@ -42,7 +42,7 @@ from gasp_core.seam import CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSet
 
 from . import ENGINE, WarpMPMConfig, kernels as K
 from .balance_alloc import allocate_balance
-from .cells import cell_arrays, cell_launches
+from .cells import cell_arrays, cell_launches, follow_order
 from .colliders import hold_launches
 from .fields import allocate_fields, field_launches, grid_sweep   # grid_sweep: round 64's grid_box.py
 from .pair_push import with_push
@@ -207,8 +207,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
         return rigid_contact(self.setup, self.dt, contact_coefficients(step_view(self.setup)))
 
     def _record_launches(self, Ft, has_extras: int, ex) -> None:
-        """Pre-recorded launches of a substep (P2G, grid update, G2P), of the passive points' G2P, of the
-        time-table tick and of the frame's finite check."""
+        """The recorded launches: a substep's (P2G, grid update, G2P), the passive points' G2P, the tick, the check."""
         setup, d, k = self.setup, self.device, self.k
         lo_v = k.vec3(*[float(c) for c in setup.domain_lo])
         hi_v = k.vec3(*[float(c) for c in setup.domain_hi])
@@ -376,6 +375,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
         self._order = np.asarray(state["order"]).astype(np.int64)
         if self.p_contact.shape[0] == self.n_points:   # the contact coefficients follow the restored order
             self.p_contact.assign(self._contact_coefficients()[self._order].astype(self._np_dtype))
+        follow_order(self)   # so do Grady's cells (cells.py)
         self.set_rigid_state(state)
         self.frame = int(state["frame"])
         self.sim_time = float(state["sim_time"])
