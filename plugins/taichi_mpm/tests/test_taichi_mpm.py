@@ -53,7 +53,7 @@ def test_plugin_is_registered_and_import_is_cheap():
     assert {o.name for o in info.options} == {"device", "precision", "dt", "n_substeps", "cfl", "cfl_rule", "max_substeps", "transfer_damping", "threads", "pin_threads", "contact_balance",
                                              "passive_every", "flip", "contact", "contact_fields", "schedule", "p2g",
                                              "tile_sort_every", "deterministic", "stress_at",
-                                             "stress_passes", "roll_contact"}
+                                             "stress_passes", "roll_contact", "fracture_cells"}
     code = "import sys, gasp_taichi_mpm; assert 'taichi' not in sys.modules, 'taichi imported'"
     subprocess.run([sys.executable, "-c", code], check=True)
 
