@@ -48,8 +48,8 @@ def _names():
 def spoil(monkeypatch, name: str, ft=None, scale: float = 1.0) -> None:
     """Break the engine ``name``: its material table's tensile strength is ``ft`` Pa (when given), or it and the
     softening stress are multiplied by ``scale``."""
-    def spoiled(materials, band=None):
-        kinds, params = material_table(materials, band)
+    def spoiled(materials, band=None, cells=None):
+        kinds, params = material_table(materials, band, cells)
         if ft is not None:
             params[:, P_FT] = ft
         params[:, P_FT] *= scale

@@ -57,8 +57,8 @@ def _opts(name: str, **kw) -> dict:
 
 def never_damages(monkeypatch, name: str) -> None:
     """Break the engine ``name``: its material table's tensile strength is made 1e30 Pa (nothing ever damages)."""
-    def spoiled(materials, band=None):
-        kinds, params = material_table(materials, band)
+    def spoiled(materials, band=None, cells=None):
+        kinds, params = material_table(materials, band, cells)
         params[:, P_FT] = 1e30
         return kinds, params
     monkeypatch.setattr(f"{PLUGIN_MODULE[name]}.material_table", spoiled)
@@ -438,9 +438,9 @@ def point_sf(name: str, s, xs: np.ndarray, sf: float) -> np.ndarray:
 
 def fixed_band(monkeypatch, name: str, h) -> None:
     """Break the engine ``name``: its softening stress is the one of a band ``h(materials, band)`` wide (m)."""
-    def spoiled(materials, band=None):
+    def spoiled(materials, band=None, cells=None):
         from gasp_core.mpm.materials import P_SF
-        kinds, params = material_table(materials, band)
+        kinds, params = material_table(materials, band, cells)
         params[:, P_SF] = [softening_stress(mm, h(band)) if mm.name == "brittle" else 0.0 for mm in materials]
         return kinds, params
     monkeypatch.setattr(f"{PLUGIN_MODULE[name]}.material_table", spoiled)

@@ -30,8 +30,8 @@ def _box(engine: str, ratio: float) -> dict:
 
 def _spoil(monkeypatch, engine: str, scale: float) -> None:
     """The engine's material table with its tensile strength scaled by ``scale`` (a broken model)."""
-    def spoiled(materials, band=None):
-        kinds, params = material_table(materials, band)
+    def spoiled(materials, band=None, cells=None):
+        kinds, params = material_table(materials, band, cells)
         params[:, P_FT] *= scale
         return kinds, params
     monkeypatch.setattr(f"{PLUGIN_MODULE[engine]}.material_table", spoiled)

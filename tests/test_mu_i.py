@@ -94,8 +94,8 @@ def test_the_column_runs_out_between_its_two_cones(name):
 @pytest.mark.slow
 @pytest.mark.parametrize("name", _names()[:1])
 def test_the_check_catches_an_engine_that_ignores_the_rheology(name, monkeypatch):
-    def ignoring(materials, band=None):
-        kinds, par = material_table(materials, band)
+    def ignoring(materials, band=None, cells=None):
+        kinds, par = material_table(materials, band, cells)
         par[:, P_DMU] = 0.0
         return kinds, par
     monkeypatch.setattr(f"{PLUGIN_MODULE[name]}.material_table", ignoring)
