@@ -116,8 +116,7 @@ def lay(setup, x: np.ndarray, v: np.ndarray, seed: int = 0) -> tuple[np.ndarray,
     size = max(chk["size"], MIN_CELL_DX * setup.dx)   # no cell under the grid's resolution (module notes)
     count = int(min(chk["count"], max(2, round(float(setup.p_vol[mat].sum()) / size ** 3))))
     cell = split_body(xm, mat, spacing, hit["impact_point"], count, size, seed)
-    if cell.max() >= MAX_CELLS:   # split_body's parts beyond the engines' key: the smallest join cell 0's field
-        cell = np.where(cell >= MAX_CELLS, cell % MAX_CELLS, cell)
+    cell = cell % MAX_CELLS   # split_body's parts past the engines' 8-bit key share an id (they seldom touch)
     band = cut_damage(xm, cell, mat, spacing) > 0
     size_dx = chk["size"] / setup.dx
     if size_dx < MIN_CELL_DX:
