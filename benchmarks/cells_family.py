@@ -7,7 +7,7 @@ pieces (``tracker``, ``tracker_1``, ``tracker_5``), the frames-only counts (``fr
 crumbs, the split's record and the wall time.
 
     python benchmarks/cells_family.py --out benchmarks/results/cells102_family.json [--engines taichi_mpm,warp_mpm]
-        [--grids 28,32,48] [--frames 30]
+        [--grids 28,32,48] [--frames 30] [--shape ball|ball:R|cube:A]
 
 Refuses an ``--out`` that exists. About 10 s a run at n_grid 28-32 and 20-40 s at 48 (2 cores).
 """
@@ -21,7 +21,7 @@ import time
 import warnings
 
 from gasp_core.run.grady_cells import laid
-from gasp_core.testing.scenes_pieces import SPEEDS, ball_setup, counted_run
+from gasp_core.testing.scenes_pieces import SPEEDS, counted_run, shape_setup
 
 KEYS = ("tracker", "tracker_1", "tracker_5", "frames_1", "frames_kept_1", "debris")
 
@@ -31,6 +31,7 @@ def main(argv=None) -> int:
     ap.add_argument("--engines", default="taichi_mpm,warp_mpm")
     ap.add_argument("--grids", default="28,32,48")
     ap.add_argument("--frames", type=int, default=30)
+    ap.add_argument("--shape", default="ball", help="ball (R 0.1 m), ball:R or cube:A (m): round 101's neighbours")
     ap.add_argument("--out", required=True, help="a new JSON file (refused if it exists)")
     a = ap.parse_args(argv)
     if os.path.exists(a.out):
@@ -42,10 +43,10 @@ def main(argv=None) -> int:
                 t0 = time.perf_counter()
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")   # cells laid larger than Grady's on a coarse grid: in the record
-                    s, split = laid(ball_setup(v, g))
+                    s, split = laid(shape_setup(a.shape, v, g))
                 r = counted_run(name, s, a.frames)
-                rows.append({"engine": name, "n_grid": g, "speed": v, "split": split, **{k: r[k] for k in KEYS},
-                             "wall_s": round(time.perf_counter() - t0, 1)})
+                rows.append({"engine": name, "shape": a.shape, "n_grid": g, "speed": v, "split": split,
+                             **{k: r[k] for k in KEYS}, "wall_s": round(time.perf_counter() - t0, 1)})
                 print(name, g, v, "pieces of 5 % at frame 12 and last:", r["tracker_5"][min(12, a.frames)],
                       r["tracker_5"][-1], flush=True)
     with open(a.out, "x") as f:

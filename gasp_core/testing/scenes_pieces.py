@@ -10,7 +10,7 @@ from gasp_core.run.pieces import LINK_RADIUS, PieceTracker, tracker_for
 from gasp_core.seam.build import build_engine
 from gasp_core.seam.plugins import engines
 from gasp_core.seam.setup import Boundary, Material, SimSetup
-from gasp_core.testing.helpers import make_setup, sphere_points
+from gasp_core.testing.helpers import box_points, make_setup, sphere_points
 from gasp_core.testing.pieces_count import FramePieces, tracker_count
 
 #: The ball family's landing speeds, m/s (issue 66: 1, 2, 4, 7 and 10).
@@ -18,6 +18,11 @@ SPEEDS = (1.0, 2.0, 4.0, 7.0, 10.0)
 #: The ball's brittle material: E 200 kPa, nu 0.25, rho 300 kg/m^3, f_t 10 kPa, G_f 10 J/m^2 (15 before round 31's crack band ``dx``: the same softening stress) (tests/test_brittle.py's
 #: ball that breaks from 1 m).
 BALL = {"E": 2e5, "nu": 0.25, "rho": 300.0, "tensile_strength": 1e4, "fracture_energy": 10.0}
+
+
+#: ``examples/donut_shatter.toml``'s biscuit: E 1 MPa, nu 0.25, rho 300 kg/m^3, f_t 27 kPa, G_f 6.14 J/m^2 (a ring of it
+#: landing on its edge at 4.43 m/s breaks in bending into its quarters).
+BISCUIT = {"E": 1e6, "nu": 0.25, "rho": 300.0, "tensile_strength": 2.7e4, "fracture_energy": 6.1351179}
 
 
 def ball_setup(speed: float, n_grid: int = 32, radius: float = 0.1) -> SimSetup:
@@ -30,6 +35,53 @@ def ball_setup(speed: float, n_grid: int = 32, radius: float = 0.1) -> SimSetup:
     return make_setup(x, pv, Material("brittle", **BALL), v=np.array([0.0, 0.0, -speed]), n_grid=n_grid,
                       frame_dt=0.01, boundaries=[Boundary("ground", height=ground, friction=0.5), Boundary("walls")],
                       options={"precision": "f32", "threads": 1})
+
+
+def cube_setup(speed: float, n_grid: int = 32, side: float = 0.16) -> SimSetup:
+    """:func:`ball_setup`'s scene (its material, points at ``dx / 2``, ground, walls, frames) with a cube of ``side`` m
+    (0.16 m: the 0.1 m ball's volume within 2 %) landing flat on a face at ``speed`` m/s: the ball's neighbour shape
+    (round 101's study, ``benchmarks/studies/cells101.py``)."""
+    dx = 1 / n_grid
+    ground = 3 * dx + 0.004
+    lo = np.array([0.5 - side / 2, 0.5 - side / 2, ground + 0.005])
+    x, pv = box_points(lo, lo + side, dx / 2)
+    return make_setup(x, pv, Material("brittle", **BALL), v=np.array([0.0, 0.0, -speed]), n_grid=n_grid,
+                      frame_dt=0.01, boundaries=[Boundary("ground", height=ground, friction=0.5), Boundary("walls")],
+                      options={"precision": "f32", "threads": 1})
+
+
+def ring_setup(speed: float, n_grid: int = 32, radius: float = 0.1, tube: float = 0.03,
+               material: Material | None = None) -> SimSetup:
+    """:func:`ball_setup`'s scene with a ring (a torus of centre-line radius ``radius`` m and tube radius ``tube`` m,
+    its axis along y) standing on its edge and landing at ``speed`` m/s: a body whose structure decides where it
+    breaks (thin-ring theory: bending at the contact and the sides; ``examples/donut_shatter.toml``). ``material``:
+    default :data:`BISCUIT`."""
+    dx = 1 / n_grid
+    ground = 3 * dx + 0.004
+    c = np.array([0.5, 0.5, ground + radius + tube + 0.005])
+    x, _ = box_points(c - (radius + tube, tube, radius + tube), c + (radius + tube, tube, radius + tube), dx / 2)
+    rho_xz = np.hypot(x[:, 0] - c[0], x[:, 2] - c[2])
+    x = x[np.hypot(rho_xz - radius, x[:, 1] - c[1]) <= tube]
+    pv = 2 * np.pi ** 2 * radius * tube ** 2 / len(x)
+    return make_setup(x, pv, material or Material("brittle", **BISCUIT), v=np.array([0.0, 0.0, -speed]),
+                      n_grid=n_grid, frame_dt=0.01, options={"precision": "f32", "threads": 1},
+                      boundaries=[Boundary("ground", height=ground, friction=0.5), Boundary("walls")])
+
+
+def shape_setup(shape: str, speed: float, n_grid: int) -> SimSetup:
+    """The family's specimen named ``shape``: ``"ball"`` (R 0.1 m), ``"ball:R"`` (radius R, m), ``"cube:A"`` (side
+    A, m) or ``"ring:R:r"`` (:func:`ring_setup`; r defaults to 0.3 R), landing at ``speed`` m/s on ``n_grid``. Raises ``ValueError`` on another name or a size outside
+    (0.02, 0.3) m."""
+    kind, _, size = shape.partition(":")
+    if kind == "ring":
+        r, _, t = (size or "0.1:0.03").partition(":")
+        return ring_setup(speed, n_grid, float(r), float(t or 0.3 * float(r)))
+    if kind not in ("ball", "cube"):
+        raise ValueError(f"shape {shape!r}: expected 'ball', 'ball:R', 'cube:A' or 'ring:R:r' (sizes in m)")
+    a = float(size) if size else (0.1 if kind == "ball" else 0.16)
+    if not 0.02 < a < 0.3:
+        raise ValueError(f"shape {shape!r}: size {a} m outside (0.02, 0.3)")
+    return ball_setup(speed, n_grid, a) if kind == "ball" else cube_setup(speed, n_grid, a)
 
 
 def rejoined_share(t: PieceTracker, cut: np.ndarray, x: np.ndarray, x_rest: np.ndarray, gap: float) -> float:
