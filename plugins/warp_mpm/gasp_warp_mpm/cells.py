@@ -12,6 +12,11 @@ normal field B's mass gradient, as the two-field contact takes it) and part free
 ``Jp`` -1 and never damages, and a broken point of a body in cells keeps its tension-free stress (``P_CELLS``,
 constitutive.py). One entry each without cells.
 
+Round 103 (:data:`CELL_BOX`; ``docs/performance.md`` "Round 103: Grady's cells over the touched box"): the node passes
+(the reference cells' clear before P2G, the contact and the clear after it) sweep the grid update's box
+(``grid_box.grid_sweep``: the hull of the nodes P2G touched this substep and the last), launched after the box is
+built, not the whole grid; the same bits (``tests/test_cell_box.py``: why the hull is enough).
+
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of the closures below as
 type objects.
 """
@@ -24,8 +29,14 @@ from gasp_core.mpm.fields import MIN_FRACTION, MIN_GRADIENT
 from gasp_core.mpm.cells import FACE_MU, KEY_SCALE
 from gasp_core.seam import SceneError
 
+from .field_nodes import build_sweep
+from .grid_box import grid_sweep
 from .precision import MODULE_OPTIONS, build_types
 from .stencil import build_stencil
+
+#: Round 103: the node passes (``cell_ref_clear``, ``cell_contact``, ``cell_clear``) sweep the grid update's box, not
+#: the whole grid (module notes); False: the whole grid (round 102's, the catch of the tests).
+CELL_BOX = True
 
 
 @functools.cache
@@ -95,14 +106,24 @@ def build_cell_reads(Ft):
 
 @functools.cache
 def build_cell_kernels(Ft):
-    """``(cell_ref_clear, cell_ref, cell_contact, cell_clear)`` for scalar type ``Ft`` (module notes)."""
+    """``(cell_ref_clear, cell_ref, cell_contact, cell_clear)`` for scalar type ``Ft`` (module notes); the node passes
+    sweep a box (``field_nodes.build_sweep``: ``box``, ``threads``, ``along``)."""
     vec3, vec4, mat33 = build_types(Ft)
     in_grid, weights = build_stencil(Ft)
     cell_of = build_cell_reads(Ft)[0]
+    box_units, unit_first, unit_len, box_q = build_sweep(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def cell_ref_clear(grid_ref: wp.array(dtype=wp.int32)):
-        grid_ref[wp.tid()] = -1
+    def cell_ref_clear(grid_ref: wp.array(dtype=wp.int32), n_grid: int, box: wp.array(dtype=wp.int32), threads: int,
+                       along: int):
+        n = box_units(box, along)
+        run = (n + threads - 1) / threads
+        for r in range(run):
+            q = box_q(wp.tid(), r, run, threads, along)
+            if q < n:
+                first = unit_first(box, q, n_grid, along)
+                for node in range(first, first + unit_len(box, along)):
+                    grid_ref[node] = -1
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def cell_ref(x: wp.array(dtype=vec3), p_mass: wp.array(dtype=Ft), p_cell: wp.array(dtype=wp.int32),
@@ -125,10 +146,9 @@ def build_cell_kernels(Ft):
     def mass_b(grid_mv: wp.array(dtype=vec4), grid_cs: wp.array(dtype=vec4), node: int):
         return grid_mv[node][3] - grid_cs[node][3]
 
-    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def cell_contact(grid_mv: wp.array(dtype=vec4), grid_cs: wp.array(dtype=vec4), grid_cd: wp.array(dtype=Ft),
-                     grid_cdv: wp.array(dtype=vec3), n_grid: int):
-        node = wp.tid()
+    @wp.func
+    def contact_node(grid_mv: wp.array(dtype=vec4), grid_cs: wp.array(dtype=vec4), grid_cd: wp.array(dtype=Ft),
+                     grid_cdv: wp.array(dtype=vec3), n_grid: int, node: int):
         nodes = n_grid * n_grid * n_grid
         I = wp.vec3i(node // (n_grid * n_grid), (node // n_grid) % n_grid, node % n_grid)
         g = grid_mv[node]
@@ -166,11 +186,31 @@ def build_cell_kernels(Ft):
         grid_cdv[nodes + node] = db
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def cell_clear(grid_cs: wp.array(dtype=vec4), grid_cd: wp.array(dtype=Ft), n_grid: int):
-        node = wp.tid()
-        grid_cs[node] = vec4(Ft(0.0))
-        grid_cd[node] = Ft(0.0)
-        grid_cd[n_grid * n_grid * n_grid + node] = Ft(0.0)
+    def cell_contact(grid_mv: wp.array(dtype=vec4), grid_cs: wp.array(dtype=vec4), grid_cd: wp.array(dtype=Ft),
+                     grid_cdv: wp.array(dtype=vec3), n_grid: int, box: wp.array(dtype=wp.int32), threads: int,
+                     along: int):
+        n = box_units(box, along)
+        run = (n + threads - 1) / threads
+        for r in range(run):
+            q = box_q(wp.tid(), r, run, threads, along)
+            if q < n:
+                first = unit_first(box, q, n_grid, along)
+                for node in range(first, first + unit_len(box, along)):
+                    contact_node(grid_mv, grid_cs, grid_cd, grid_cdv, n_grid, node)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def cell_clear(grid_cs: wp.array(dtype=vec4), grid_cd: wp.array(dtype=Ft), n_grid: int,
+                   box: wp.array(dtype=wp.int32), threads: int, along: int):
+        n = box_units(box, along)
+        run = (n + threads - 1) / threads
+        for r in range(run):
+            q = box_q(wp.tid(), r, run, threads, along)
+            if q < n:
+                first = unit_first(box, q, n_grid, along)
+                for node in range(first, first + unit_len(box, along)):
+                    grid_cs[node] = vec4(Ft(0.0))
+                    grid_cd[node] = Ft(0.0)
+                    grid_cd[n_grid * n_grid * n_grid + node] = Ft(0.0)
 
     return cell_ref_clear, cell_ref, cell_contact, cell_clear
 
@@ -217,12 +257,24 @@ def cell_launches(eng, Ft) -> tuple[list, list]:
     if not eng.cells_on:
         return [], []
     ref_clear, ref, contact, clear = build_cell_kernels(Ft)
-    d, ng, nodes = eng.device, eng.n_grid, eng.n_grid ** 3
+    d, ng = eng.device, eng.n_grid
     lo = eng.k.vec3(*[float(c) for c in eng.setup.domain_lo])
-    before = [wp.launch(ref_clear, dim=nodes, device=d, record_cmd=True, inputs=[eng.grid_ref]),
+    sweep = cell_sweep(eng)
+    before = [wp.launch(ref_clear, dim=sweep[1], device=d, record_cmd=True, inputs=[eng.grid_ref, ng, *sweep]),
               wp.launch(ref, dim=eng.n_material, device=d, record_cmd=True, inputs=[
                   eng.x, eng.p_mass, eng.p_cell, eng.grid_ref, lo, Ft(eng.inv_dx), ng])]
-    after = [wp.launch(contact, dim=nodes, device=d, record_cmd=True, inputs=[
-                 eng.grid_mv, eng.grid_cs, eng.grid_cd, eng.grid_cdv, ng]),
-             wp.launch(clear, dim=nodes, device=d, record_cmd=True, inputs=[eng.grid_cs, eng.grid_cd, ng])]
+    after = [wp.launch(contact, dim=sweep[1], device=d, record_cmd=True, inputs=[
+                 eng.grid_mv, eng.grid_cs, eng.grid_cd, eng.grid_cdv, ng, *sweep]),
+             wp.launch(clear, dim=sweep[1], device=d, record_cmd=True, inputs=[eng.grid_cs, eng.grid_cd, ng, *sweep])]
     return before, after
+
+
+def cell_sweep(eng) -> list:
+    """The node passes' last three inputs (``field_nodes.build_sweep``): with :data:`CELL_BOX` the grid update's box
+    (``grid_box.grid_sweep``: the hull of the nodes P2G touched this substep and the last), else the whole grid."""
+    sweep = grid_sweep(eng)
+    if not CELL_BOX:
+        ng = eng.n_grid
+        sweep[0] = wp.array(np.array([0, 0, 0, ng - 1, ng - 1, ng - 1] * 2, np.int32), dtype=wp.int32,
+                            device=eng.device)
+    return sweep

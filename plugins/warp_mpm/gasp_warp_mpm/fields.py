@@ -341,8 +341,8 @@ def body_channel(in_a, node_mu, a_mu) -> np.ndarray:
 def field_launches(eng, Ft) -> list:
     """The recorded launches of the contact and the clear (after P2G, before the grid update); none without it."""
     from .cells import cell_launches   # here: cells.py reads stencil.py, which reads this module
-    if not eng.fields:   # Grady's cells' contact and clear (cells.py), then round 64's grid box (grid_box.py)
-        return cell_launches(eng, Ft)[1] + grid_box_launches(eng, Ft)
+    if not eng.fields:   # round 64's grid box (grid_box.py), then Grady's cells' contact and clear over it (cells.py)
+        return grid_box_launches(eng, Ft) + cell_launches(eng, Ft)[1]
     contact, clear = build_fields(Ft)
     ng, d = eng.n_grid, eng.device
     # the walls' grid rule reaches node indices below wall_in and above (hi - lo) / dx - wall_in (grid.py)
