@@ -105,12 +105,10 @@ def build_cell_reads(Ft):
 
 
 @functools.cache
-def build_cell_kernels(Ft):
-    """``(cell_ref_clear, cell_ref, cell_contact, cell_clear)`` for scalar type ``Ft`` (module notes); the node passes
-    sweep a box (``field_nodes.build_sweep``: ``box``, ``threads``, ``along``)."""
+def build_cell_clears(Ft):
+    """``(cell_ref_clear, cell_clear)``: box sweeps (``field_nodes.build_sweep``) that set ``grid_ref`` to -1 (before
+    P2G) and the fields' sums ``grid_cs``, ``grid_cd`` to zero (after the contact)."""
     vec3, vec4, mat33 = build_types(Ft)
-    in_grid, weights = build_stencil(Ft)
-    cell_of = build_cell_reads(Ft)[0]
     box_units, unit_first, unit_len, box_q = build_sweep(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
@@ -126,21 +124,28 @@ def build_cell_kernels(Ft):
                     grid_ref[node] = -1
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def cell_ref(x: wp.array(dtype=vec3), p_mass: wp.array(dtype=Ft), p_cell: wp.array(dtype=wp.int32),
-                 grid_ref: wp.array(dtype=wp.int32), lo: vec3, inv_dx: Ft, n_grid: int):
-        p = wp.tid()
-        c = cell_of(p_cell[p])
-        X = (x[p] - lo) * inv_dx
-        if c < 0 or p_mass[p] <= Ft(0.0) or not in_grid(X, n_grid):
-            return
-        b = vec3(wp.floor(X[0] - Ft(0.5)), wp.floor(X[1] - Ft(0.5)), wp.floor(X[2] - Ft(0.5)))
-        W = weights(X - b)
-        idx0 = (int(b[0]) * n_grid + int(b[1])) * n_grid + int(b[2])
-        for i in range(3):
-            for j in range(3):
-                for k in range(3):
-                    key = int(W[i, 0] * W[j, 1] * W[k, 2] * Ft(KEY_SCALE)) * 256 + c
-                    wp.atomic_max(grid_ref, idx0 + (i * n_grid + j) * n_grid + k, key)
+    def cell_clear(grid_cs: wp.array(dtype=vec4), grid_cd: wp.array(dtype=Ft), n_grid: int,
+                   box: wp.array(dtype=wp.int32), threads: int, along: int):
+        n = box_units(box, along)
+        run = (n + threads - 1) / threads
+        for r in range(run):
+            q = box_q(wp.tid(), r, run, threads, along)
+            if q < n:
+                first = unit_first(box, q, n_grid, along)
+                for node in range(first, first + unit_len(box, along)):
+                    grid_cs[node] = vec4(Ft(0.0))
+                    grid_cd[node] = Ft(0.0)
+                    grid_cd[n_grid * n_grid * n_grid + node] = Ft(0.0)
+
+    return cell_ref_clear, cell_clear
+
+
+@functools.cache
+def build_contact_node(Ft):
+    """``contact_node(grid_mv, grid_cs, grid_cd, grid_cdv, n_grid, node)``: both fields' velocity offsets at ``node``
+    (module notes: one motion unless each field has a broken point there; then Coulomb when they approach along field
+    B's mass gradient, free when they part)."""
+    vec3, vec4, mat33 = build_types(Ft)
 
     @wp.func
     def mass_b(grid_mv: wp.array(dtype=vec4), grid_cs: wp.array(dtype=vec4), node: int):
@@ -185,6 +190,36 @@ def build_cell_kernels(Ft):
         grid_cdv[node] = da
         grid_cdv[nodes + node] = db
 
+    return contact_node
+
+
+@functools.cache
+def build_cell_kernels(Ft):
+    """``(cell_ref_clear, cell_clear, cell_ref, cell_contact)`` for scalar type ``Ft`` (module notes); the node passes
+    sweep a box (``field_nodes.build_sweep``: ``box``, ``threads``, ``along``)."""
+    vec3, vec4, mat33 = build_types(Ft)
+    in_grid, weights = build_stencil(Ft)
+    cell_of = build_cell_reads(Ft)[0]
+    box_units, unit_first, unit_len, box_q = build_sweep(Ft)
+    contact_node = build_contact_node(Ft)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def cell_ref(x: wp.array(dtype=vec3), p_mass: wp.array(dtype=Ft), p_cell: wp.array(dtype=wp.int32),
+                 grid_ref: wp.array(dtype=wp.int32), lo: vec3, inv_dx: Ft, n_grid: int):
+        p = wp.tid()
+        c = cell_of(p_cell[p])
+        X = (x[p] - lo) * inv_dx
+        if c < 0 or p_mass[p] <= Ft(0.0) or not in_grid(X, n_grid):
+            return
+        b = vec3(wp.floor(X[0] - Ft(0.5)), wp.floor(X[1] - Ft(0.5)), wp.floor(X[2] - Ft(0.5)))
+        W = weights(X - b)
+        idx0 = (int(b[0]) * n_grid + int(b[1])) * n_grid + int(b[2])
+        for i in range(3):
+            for j in range(3):
+                for k in range(3):
+                    key = int(W[i, 0] * W[j, 1] * W[k, 2] * Ft(KEY_SCALE)) * 256 + c
+                    wp.atomic_max(grid_ref, idx0 + (i * n_grid + j) * n_grid + k, key)
+
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def cell_contact(grid_mv: wp.array(dtype=vec4), grid_cs: wp.array(dtype=vec4), grid_cd: wp.array(dtype=Ft),
                      grid_cdv: wp.array(dtype=vec3), n_grid: int, box: wp.array(dtype=wp.int32), threads: int,
@@ -198,21 +233,7 @@ def build_cell_kernels(Ft):
                 for node in range(first, first + unit_len(box, along)):
                     contact_node(grid_mv, grid_cs, grid_cd, grid_cdv, n_grid, node)
 
-    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def cell_clear(grid_cs: wp.array(dtype=vec4), grid_cd: wp.array(dtype=Ft), n_grid: int,
-                   box: wp.array(dtype=wp.int32), threads: int, along: int):
-        n = box_units(box, along)
-        run = (n + threads - 1) / threads
-        for r in range(run):
-            q = box_q(wp.tid(), r, run, threads, along)
-            if q < n:
-                first = unit_first(box, q, n_grid, along)
-                for node in range(first, first + unit_len(box, along)):
-                    grid_cs[node] = vec4(Ft(0.0))
-                    grid_cd[node] = Ft(0.0)
-                    grid_cd[n_grid * n_grid * n_grid + node] = Ft(0.0)
-
-    return cell_ref_clear, cell_ref, cell_contact, cell_clear
+    return (*build_cell_clears(Ft), cell_ref, cell_contact)
 
 
 def allocate_cells(eng, Ft) -> None:
@@ -256,7 +277,7 @@ def cell_launches(eng, Ft) -> tuple[list, list]:
     the clear); none without cells."""
     if not eng.cells_on:
         return [], []
-    ref_clear, ref, contact, clear = build_cell_kernels(Ft)
+    ref_clear, clear, ref, contact = build_cell_kernels(Ft)
     d, ng = eng.device, eng.n_grid
     lo = eng.k.vec3(*[float(c) for c in eng.setup.domain_lo])
     sweep = cell_sweep(eng)
