@@ -1,7 +1,8 @@
 """The pieces family's ball laid out in Grady's cells as a run lays it, on the MLS-MPM engines (issue 66, "Pieces": the
 pieces of 5 % or more never decrease with speed; ``docs/fracture.md`` "Round 102: Grady's cells in the engines").
 
-For each engine, ``n_grid`` and landing speed (1, 2, 4, 7, 10 m/s): ``gasp_core.run.grady_cells.laid`` on
+For each engine, ``n_grid`` and landing speed (1, 2, 4, 7, 10 m/s): ``gasp_core.run.grady_cells.laid`` (the landing probed on the engine, as a run does; ``--no-probe``: Grady's cells
+alone) on
 ``gasp_core.testing.scenes_pieces.ball_setup``, then ``counted_run`` over ``--frames`` frames: per frame the run's
 pieces (``tracker``, ``tracker_1``, ``tracker_5``), the frames-only counts (``frames_1``, ``frames_kept_1``), the
 crumbs, the split's record and the wall time.
@@ -21,6 +22,7 @@ import time
 import warnings
 
 from gasp_core.run.grady_cells import laid
+from gasp_core.seam.plugins import engines
 from gasp_core.testing.scenes_pieces import SPEEDS, counted_run, shape_setup
 
 KEYS = ("tracker", "tracker_1", "tracker_5", "frames_1", "frames_kept_1", "debris")
@@ -31,6 +33,7 @@ def main(argv=None) -> int:
     ap.add_argument("--engines", default="taichi_mpm,warp_mpm")
     ap.add_argument("--grids", default="28,32,48")
     ap.add_argument("--frames", type=int, default=30)
+    ap.add_argument("--no-probe", action="store_true", help="Grady's cells alone (round 102's), no probe")
     ap.add_argument("--shape", default="ball", help="ball (R 0.1 m), ball:R or cube:A (m): round 101's neighbours")
     ap.add_argument("--out", required=True, help="a new JSON file (refused if it exists)")
     a = ap.parse_args(argv)
@@ -43,7 +46,7 @@ def main(argv=None) -> int:
                 t0 = time.perf_counter()
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")   # cells laid larger than Grady's on a coarse grid: in the record
-                    s, split = laid(shape_setup(a.shape, v, g))
+                    s, split = laid(shape_setup(a.shape, v, g), info=None if a.no_probe else engines()[name])
                 r = counted_run(name, s, a.frames)
                 rows.append({"engine": name, "shape": a.shape, "n_grid": g, "speed": v, "split": split,
                              **{k: r[k] for k in KEYS}, "wall_s": round(time.perf_counter() - t0, 1)})

@@ -4,9 +4,9 @@ from gasp_core.seam.options import Option
 
 #: Engine option: lay a soft brittle body out in Grady's cells at its landing (``gasp_core.run.grady_cells``).
 CELLS = Option("fracture_cells", True, "a soft brittle body that lands hard enough to break is laid out in Grady's "
-               "fragments (Voronoi cells of his size) and the cells part at their faces (docs/fracture.md, round 102); "
-               "false: it cracks where its stress puts the damage, as one velocity field (a ring that fails in "
-               "bending breaks at its bending's tension points, examples/donut_shatter.toml)", kind="bool")
+               "fragments (Voronoi cells of his size), cut by the cracks a probe of its landing finds, and the cells "
+               "part at their faces (docs/fracture.md, rounds 102-103); false: it cracks where its stress puts the "
+               "damage, as one velocity field", kind="bool")
 
 #: The crack faces' Coulomb coefficient between two cells' fields (round 101's study, ``benchmarks/studies/cells101.py
 #: --mu``).

@@ -143,7 +143,19 @@ def split_body(x: np.ndarray, material: np.ndarray, spacing: float, impact: np.n
     d = np.linalg.norm(x[mat] - np.asarray(impact, np.float64), axis=1)
     w = 1.0 / (d + size) ** 2
     seeds = rng.choice(len(mat), size=min(count, len(mat)), replace=False, p=w / w.sum())
-    cell = cKDTree(x[mat][seeds]).query(x[mat])[1]
+    out = np.zeros(len(x), np.int64)
+    out[mat] = cKDTree(x[mat][seeds]).query(x[mat])[1]
+    return connected_cells(x, material, spacing, out)
+
+
+def connected_cells(x: np.ndarray, material: np.ndarray, spacing: float, cell: np.ndarray) -> np.ndarray:
+    """Each point's fragment, shape (n,), int64, ``0 .. k - 1`` numbered by points (largest 0): the connected parts
+    (rest links closer than :data:`LINK_RADIUS` ``spacing``, m) of each of the material points' cells ``cell`` (n,)
+    int, parts under :data:`MIN_POINTS` points joined to the part of their nearest point in a larger one, and the
+    passive points (not ``material``) in the fragment of their nearest material point. ``x`` (n, 3), m."""
+    x = np.asarray(x, np.float64)
+    mat = np.flatnonzero(material)
+    cell = np.asarray(cell, np.int64)[mat]
     pairs = cKDTree(x[mat]).query_pairs(LINK_RADIUS * spacing, output_type="ndarray")
     same = cell[pairs[:, 0]] == cell[pairs[:, 1]]
     p = pairs[same]

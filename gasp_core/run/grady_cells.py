@@ -32,6 +32,7 @@ import warnings
 import numpy as np
 
 from gasp_core.run.fragments import break_check, cut_damage, ground_hit, split_body
+from gasp_core.run.stress_cells import probe, union
 
 #: ``SimSetup.cells`` of a point not laid out in cells.
 NO_CELL = -1
@@ -93,10 +94,14 @@ def landing(setup, x: np.ndarray, v: np.ndarray) -> dict | None:
     return {"speed": speed, "impact_point": np.array([*xm[foot, :2].mean(0), z0])}
 
 
-def lay(setup, x: np.ndarray, v: np.ndarray, seed: int = 0) -> tuple[np.ndarray, dict] | None:
+def lay(setup, x: np.ndarray, v: np.ndarray, seed: int = 0, info=None) -> tuple[np.ndarray, dict] | None:
     """The cells of ``setup``'s body at positions ``x`` and velocities ``v`` (n, 3), when :func:`soft_brittle` and
     its :func:`landing` within the coming frame breaks it (:func:`break_check`): ``(cells, record)``, ``cells`` the
     ``SimSetup.cells`` (:func:`encode`) and ``record`` the split's figures (JSON-ready); None otherwise.
+
+    With ``info`` (an engine's :class:`~gasp_core.seam.plugins.EngineInfo`; a run passes it) the landing is probed
+    on it too (:mod:`gasp_core.run.stress_cells`): where its stress breaks the body into parts, the cells are Grady's
+    cut by those parts (``record["seeded"]`` "impact and stress"), else Grady's ("impact").
 
     Warns (UserWarning) when Grady's fragments are under :data:`MIN_CELL_DX` grid cells across: the cells are laid
     at that size instead, fewer and larger than Grady's (the pieces fall short of his count)."""
@@ -116,6 +121,12 @@ def lay(setup, x: np.ndarray, v: np.ndarray, seed: int = 0) -> tuple[np.ndarray,
     size = max(chk["size"], MIN_CELL_DX * setup.dx)   # no cell under the grid's resolution (module notes)
     count = int(min(chk["count"], max(2, round(float(setup.p_vol[mat].sum()) / size ** 3))))
     cell = split_body(xm, mat, spacing, hit["impact_point"], count, size, seed)
+    seeded = {"seeded": "impact"}
+    if info is not None:
+        parts, rec = probe(info, setup.replace(x=np.array(xm), v=np.array(v, np.float64), C=None), spacing)
+        seeded = {"seeded": "impact" if parts is None else "impact and stress", **rec}
+        if parts is not None:
+            cell = union(xm, mat, spacing, cell, parts)
     cell = cell % MAX_CELLS   # split_body's parts past the engines' 8-bit key share an id (they seldom touch)
     band = cut_damage(xm, cell, mat, spacing) > 0
     size_dx = chk["size"] / setup.dx
@@ -124,16 +135,17 @@ def lay(setup, x: np.ndarray, v: np.ndarray, seed: int = 0) -> tuple[np.ndarray,
                       f"across, under the {MIN_CELL_DX} the grid parts: laid as {count} cells of {MIN_CELL_DX} "
                       f"instead of {chk['count']}, fewer and larger than Grady's; raise n_grid to resolve them",
                       UserWarning, stacklevel=2)
-    record = {"speed": round(hit["speed"], 4), "impact_point": [round(float(c), 5) for c in hit["impact_point"]],
+    record = {"speed": round(hit["speed"], 4), **seeded, "impact_point": [round(float(c), 5) for c in hit["impact_point"]],
               "cells": int(cell.max() + 1), "size": chk["size"], "size_dx": round(size_dx, 3),
               "band": round(float(band[mat].mean()), 4)}
     return encode(cell, band), record
 
 
-def laid(setup, seed: int = 0):
-    """``setup`` with its cells laid at its start (:func:`lay` on ``setup.x``, ``setup.v``), and the record (None
-    where not laid): what a run does at frame 0, and the pieces family's scenes."""
-    out = lay(setup, setup.x, setup.v, seed)
+def laid(setup, seed: int = 0, info=None):
+    """``setup`` with its cells laid at its start (:func:`lay` on ``setup.x``, ``setup.v``, probed on engine ``info``
+    where given, as a run does), and the record (None where not laid): what a run does at frame 0, and the pieces
+    family's scenes."""
+    out = lay(setup, setup.x, setup.v, seed, info)
     if out is None:
         return setup, None
     return setup.replace(cells=out[0]), out[1]
@@ -152,7 +164,8 @@ def frames(info, setup, stats, n_frames: int, start_frame: int = 0, state: dict 
     body laid out in cells at the frame its landing is predicted in (module notes): at the start, the scene's engine
     is built with them; later, after the frame before the landing, a new engine is built at that frame's positions
     and velocities with them (as the stiff route's fragments are; the body's ``F`` and ``C`` start again from the
-    identity and zero, which a body in free fall nearly has). A body already damaged then is not laid out.
+    identity and zero, which a body in free fall nearly has). A body already damaged then is not laid out. The
+    landing is probed on ``info`` first (:func:`lay`'s ``info``; the run's own engine closed before).
     ``stats.fragments`` gains the record (``route`` "cells", ``frame`` the last frame before it, :func:`lay`'s
     figures); ``tracker`` (:class:`gasp_core.run.pieces.PieceTracker`) is told the cells. After a rebuild the frames
     carry no engine state (no checkpoint: the engine is not the scene's; a resumed run starts before the landing and
@@ -167,7 +180,7 @@ def frames(info, setup, stats, n_frames: int, start_frame: int = 0, state: dict 
             tracker.split_cells(out[0])
         return s.replace(cells=out[0])
 
-    out = lay(setup, setup.x, setup.v)   # a resumed run lays them again: a function of the setup alone
+    out = lay(setup, setup.x, setup.v, info=info)   # a resumed run lays them again: a function of the setup alone
     if out is not None:
         setup = laid_at(0, setup, out)
     with EngineRun(info, setup, stats, start_frame=start_frame, state=state, sleep=sleep, settle=settle) as run:
@@ -180,15 +193,15 @@ def frames(info, setup, stats, n_frames: int, start_frame: int = 0, state: dict 
             yield rec
             if rec.frame >= n_frames:
                 return
+            if "damage" in info.capabilities.features and float(np.max(np.asarray(
+                    call_engine(info, "damage", run.engine.damage), np.float64), initial=0.0)) > 0.0:
+                continue   # a body already damaged is not laid out
             v = np.asarray(call_engine(info, "velocities", run.engine.velocities), np.float64)
-            out = lay(setup, rec.x, v)
-            if out is not None and "damage" in info.capabilities.features:
-                d = np.asarray(call_engine(info, "damage", run.engine.damage), np.float64)
-                out = out if float(d.max(initial=0.0)) <= 0.0 else None
-            if out is not None:
+            if lay(setup, rec.x, v) is not None:   # Grady's check; the probe once this engine is closed
                 break
         else:
             return
+    out = lay(setup, rec.x, v, info=info)
     k0 = rec.frame
     new = laid_at(k0, setup.replace(x=np.array(rec.x), v=v, C=None), out)
     with EngineRun(info, new, stats, sleep=sleep) as run:
