@@ -189,3 +189,19 @@ def cut_damage(x: np.ndarray, fragment: np.ndarray, material: np.ndarray, spacin
     d = np.zeros(len(x))
     d[mat[cross.ravel()]] = 1.0
     return d
+
+
+def encode(cell: np.ndarray, band: np.ndarray) -> np.ndarray:
+    """``SimSetup.cells`` (Grady's cells on a soft body, ``gasp_core.run.grady_cells``) from each point's cell ``cell``
+    (n,) int >= 0 and whether it is a band point ``band`` (n,) bool: the cell for a band point, ``-2 - cell`` for an
+    inside point (it never damages); shape (n,), int32."""
+    cell = np.asarray(cell, np.int64)
+    return np.where(np.asarray(band, bool), cell, -2 - cell).astype(np.int32)
+
+
+def decode(cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(cell, inside)`` of ``SimSetup.cells`` (:func:`encode`): each point's cell (n,) int64, -1 where none
+    (``grady_cells.NO_CELL``), and whether it is a cell's inside (n,) bool."""
+    c = np.asarray(cells, np.int64)
+    inside = c <= -2
+    return np.where(inside, -2 - c, c), inside

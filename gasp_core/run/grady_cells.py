@@ -31,7 +31,7 @@ import warnings
 
 import numpy as np
 
-from gasp_core.run.fragments import break_check, cut_damage, ground_hit, split_body
+from gasp_core.run.fragments import break_check, cut_damage, decode, encode, ground_hit, split_body  # noqa: F401
 from gasp_core.run.stress_cells import probe, union
 
 #: ``SimSetup.cells`` of a point not laid out in cells.
@@ -47,21 +47,6 @@ MIN_CELL_DX = 2.3
 MIN_FRAGMENTS = 2.0
 #: Engine feature: reads ``SimSetup.cells`` (module notes).
 FEATURE = "fracture_cells"
-
-
-def encode(cell: np.ndarray, band: np.ndarray) -> np.ndarray:
-    """``SimSetup.cells`` from each point's cell ``cell`` (n,) int >= 0 and whether it is a band point ``band`` (n,)
-    bool: the cell for a band point, ``-2 - cell`` for an inside point (it never damages); shape (n,), int32."""
-    cell = np.asarray(cell, np.int64)
-    return np.where(np.asarray(band, bool), cell, -2 - cell).astype(np.int32)
-
-
-def decode(cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(cell, inside)`` of ``SimSetup.cells`` (:func:`encode`): each point's cell (n,) int64, :data:`NO_CELL` where
-    none, and whether it is a cell's inside (n,) bool."""
-    c = np.asarray(cells, np.int64)
-    inside = c <= -2
-    return np.where(inside, -2 - c, c), inside
 
 
 def soft_brittle(setup) -> bool:

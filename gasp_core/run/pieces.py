@@ -132,7 +132,7 @@ class PieceTracker:
         """Grady's cells laid on a soft brittle body (``SimSetup.cells``, :mod:`gasp_core.run.grady_cells`): from now
         on a link between two cells is cut once it opens past its gap, whatever its points' damage (the engines part
         the cells at their faces without breaking every band point)."""
-        from gasp_core.run.grady_cells import decode
+        from gasp_core.run.fragments import decode
         cell = decode(cells)[0]
         a, b = cell[self.pairs[:, 0]], cell[self.pairs[:, 1]]
         self.cross = (a >= 0) & (b >= 0) & (a != b)
