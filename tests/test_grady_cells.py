@@ -53,6 +53,23 @@ def test_the_layout_grows_with_the_landing_speed_and_none_where_it_does_not_brea
     assert cell.min() == 0 and 0.1 < inside.mean() < 0.5   # the band: the points beside another cell
 
 
+def test_one_outsized_point_volume_does_not_widen_the_cells_links(monkeypatch):
+    """Round 103: the cells' links (the band, the split's parts) take the body's spacing as the pieces do (the 90th
+    percentile of ``p_vol^(1/3)``), so one point of 30 times the volume (a fill's stray share) leaves the band
+    (the points beside another cell) as wide. The catch: the spacing of the largest volume (the rule before) widens the links three times and the band
+    takes the whole ball."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        s = ball_setup(7.0, 28)
+        odd = s.replace(p_vol=np.where(np.arange(len(s.p_vol)) == 0, 30 * s.p_vol, s.p_vol))
+        good, odd_cells = grady_cells.laid(s)[0].cells, grady_cells.laid(odd)[0].cells
+        monkeypatch.setattr(grady_cells, "body_spacing", lambda p_vol: float(np.cbrt(np.max(p_vol))))
+        wide = grady_cells.laid(odd)[0].cells
+    band = [1.0 - grady_cells.decode(c)[1].mean() for c in (good, odd_cells, wide)]
+    # the outlier's volume changes the body's (Grady's count), not the band's width; the rule before: all band
+    assert abs(band[1] - band[0]) < 0.02 and band[0] < 0.8 and band[2] > 0.99, band
+
+
 def test_cells_under_the_grids_resolution_are_laid_larger_with_a_warning():
     with pytest.warns(UserWarning, match="fewer and larger"):
         _, rec = grady_cells.laid(ball_setup(10.0, 28))   # Grady's: 1.8 grid cells across, 16 of them

@@ -32,6 +32,7 @@ import warnings
 import numpy as np
 
 from gasp_core.run.fragments import break_check, cut_damage, decode, encode, ground_hit, split_body  # noqa: F401
+from gasp_core.run.pieces import SPACING_PERCENTILE
 from gasp_core.run.stress_cells import probe, union
 
 #: ``SimSetup.cells`` of a point not laid out in cells.
@@ -47,6 +48,13 @@ MIN_CELL_DX = 2.3
 MIN_FRAGMENTS = 2.0
 #: Engine feature: reads ``SimSetup.cells`` (module notes).
 FEATURE = "fracture_cells"
+
+
+def body_spacing(p_vol: np.ndarray) -> float:
+    """The body's fill spacing, m, from its material points' volumes ``p_vol`` (m^3): the
+    :data:`~gasp_core.run.pieces.SPACING_PERCENTILE` percentile of ``p_vol^(1/3)``, as the pieces' links take it (a
+    few points of outsized volume do not widen the cells' links, nor the memory their pairs take)."""
+    return float(np.percentile(np.cbrt(np.asarray(p_vol, np.float64)), SPACING_PERCENTILE))
 
 
 def soft_brittle(setup) -> bool:
@@ -74,7 +82,7 @@ def landing(setup, x: np.ndarray, v: np.ndarray) -> dict | None:
     speed = ground_hit(z0 - max(grounds), vz, -float(setup.gravity[2]), float(setup.frame_dt))
     if speed is None:
         return None
-    spacing = float(np.cbrt(np.max(setup.p_vol[mat])))
+    spacing = body_spacing(setup.p_vol[mat])
     foot = xm[:, 2] <= z0 + spacing
     return {"speed": speed, "impact_point": np.array([*xm[foot, :2].mean(0), z0])}
 
@@ -102,7 +110,7 @@ def lay(setup, x: np.ndarray, v: np.ndarray, seed: int = 0, info=None) -> tuple[
                       hit["speed"])
     if not chk["breaks"] or float(setup.p_vol[mat].sum()) < MIN_FRAGMENTS * chk["size"] ** 3:
         return None   # Grady's fragments do not fit the body twice: where it breaks is its structure's stress
-    spacing = float(np.cbrt(np.max(setup.p_vol[mat])))
+    spacing = body_spacing(setup.p_vol[mat])
     size = max(chk["size"], MIN_CELL_DX * setup.dx)   # no cell under the grid's resolution (module notes)
     count = int(min(chk["count"], max(2, round(float(setup.p_vol[mat].sum()) / size ** 3))))
     cell = split_body(xm, mat, spacing, hit["impact_point"], count, size, seed)
