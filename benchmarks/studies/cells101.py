@@ -37,18 +37,10 @@ from fragments99 import lay_cells  # noqa: E402 (round 99's)
 
 
 def cube_setup(speed: float, n_grid: int, side: float):
-    """The ball family's scene (``ball_setup``: its material, points at ``dx / 2``, ground, walls, frames) with a cube of
-    ``side`` m landing flat on a face at ``speed`` m/s: a neighbour shape for the cells."""
-    from gasp_core.seam.setup import Boundary, Material
-    from gasp_core.testing.helpers import box_points, make_setup
-    from gasp_core.testing.scenes_pieces import BALL
-    dx = 1 / n_grid
-    ground = 3 * dx + 0.004
-    lo = np.array([0.5 - side / 2, 0.5 - side / 2, ground + 0.005])
-    x, pv = box_points(lo, lo + side, dx / 2)
-    return make_setup(x, pv, Material("brittle", **BALL), v=np.array([0.0, 0.0, -speed]), n_grid=n_grid,
-                      frame_dt=0.01, boundaries=[Boundary("ground", height=ground, friction=0.5), Boundary("walls")],
-                      options={"precision": "f32", "threads": 1})
+    """The ball family's scene with a cube of ``side`` m landing flat on a face at ``speed`` m/s: a neighbour shape for
+    the cells (``gasp_core.testing.scenes_pieces.cube_setup`` since round 103)."""
+    from gasp_core.testing.scenes_pieces import cube_setup as cube
+    return cube(speed, n_grid, side)
 
 
 def donut_setup(n_grid: int):
