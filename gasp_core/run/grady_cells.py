@@ -145,9 +145,11 @@ def laid(setup, seed: int = 0, info=None):
 
 
 def applies(info, setup) -> bool:
-    """Whether a run lays cells on ``setup`` with engine ``info``: :func:`soft_brittle`, the engine has the feature
-    :data:`FEATURE` (the others run the body as before) and its option ``fracture_cells`` is not false."""
-    return (soft_brittle(setup) and FEATURE in info.capabilities.features
+    """Whether a run lays cells on ``setup`` with engine ``info``: :func:`soft_brittle`, the engine has the features
+    :data:`FEATURE` and ``damage`` (the landing's probe reads it; the others run the body as before) and its option
+    ``fracture_cells`` is not false."""
+    features = info.capabilities.features
+    return (soft_brittle(setup) and FEATURE in features and "damage" in features
             and setup.options.get("fracture_cells", True) is not False)
 
 
