@@ -1,9 +1,9 @@
 """The pieces family's ball laid out in Grady's cells as a run lays it, on the MLS-MPM engines (issue 66, "Pieces": the
 pieces of 5 % or more never decrease with speed; ``docs/fracture.md`` "Round 102: Grady's cells in the engines").
 
-For each engine, ``n_grid`` and landing speed (1, 2, 4, 7, 10 m/s): ``gasp_core.run.grady_cells.laid`` (the landing probed on the engine, as a run does; ``--no-probe``: Grady's cells
-alone) on
-``gasp_core.testing.scenes_pieces.ball_setup``, then ``counted_run`` over ``--frames`` frames: per frame the run's
+For each engine, ``n_grid`` and landing speed (1, 2, 4, 7, 10 m/s): ``gasp_core.run.grady_cells.laid`` (the landing
+probed on the engine, as a run does; ``--no-probe``: Grady's cells alone) on
+``gasp_core.testing.scenes_pieces.shape_setup``, then ``counted_run`` over ``--frames`` frames: per frame the run's
 pieces (``tracker``, ``tracker_1``, ``tracker_5``), the frames-only counts (``frames_1``, ``frames_kept_1``), the
 crumbs, the split's record and the wall time.
 

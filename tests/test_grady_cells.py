@@ -56,8 +56,8 @@ def test_the_layout_grows_with_the_landing_speed_and_none_where_it_does_not_brea
 def test_one_outsized_point_volume_does_not_widen_the_cells_links(monkeypatch):
     """Round 103: the cells' links (the band, the split's parts) take the body's spacing as the pieces do (the 90th
     percentile of ``p_vol^(1/3)``), so one point of 30 times the volume (a fill's stray share) leaves the band
-    (the points beside another cell) as wide. The catch: the spacing of the largest volume (the rule before) widens the links three times and the band
-    takes the whole ball."""
+    (the points beside another cell) as wide. The catch: the spacing of the largest volume (the rule before) widens
+    the links three times and the band takes the whole ball."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         s = ball_setup(7.0, 28)

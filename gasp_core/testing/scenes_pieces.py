@@ -70,8 +70,8 @@ def ring_setup(speed: float, n_grid: int = 32, radius: float = 0.1, tube: float 
 
 def shape_setup(shape: str, speed: float, n_grid: int) -> SimSetup:
     """The family's specimen named ``shape``: ``"ball"`` (R 0.1 m), ``"ball:R"`` (radius R, m), ``"cube:A"`` (side
-    A, m) or ``"ring:R:r"`` (:func:`ring_setup`; r defaults to 0.3 R), landing at ``speed`` m/s on ``n_grid``. Raises ``ValueError`` on another name or a size outside
-    (0.02, 0.3) m."""
+    A, m) or ``"ring:R:r"`` (:func:`ring_setup`; r defaults to 0.3 R), landing at ``speed`` m/s on ``n_grid``.
+    Raises ``ValueError`` on another name or a size outside (0.02, 0.3) m."""
     kind, _, size = shape.partition(":")
     if kind == "ring":
         r, _, t = (size or "0.1:0.03").partition(":")
