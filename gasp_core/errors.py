@@ -48,14 +48,24 @@ class EngineDivergence(GaspError, RuntimeError):
         ``run.json`` ``status: "diverged"``; :func:`gasp_core.run.pipeline.simulate_scene`); None: nothing kept.
     last_kept : int or None
         The last frame kept there (frames ``0..last_kept``).
+    message : str
+        What was detected, without the frame and the cause.
     """
 
     def __init__(self, message: str, frame: int, cause: str = ""):
         super().__init__(f"frame {frame}: {message}" + (f" (likely cause: {cause})" if cause else ""))
+        self.message = message
         self.frame = frame
         self.cause = cause
         self.kept: Path | None = None
         self.last_kept: int | None = None
+
+
+def shifted(error: EngineDivergence, frames: int, where: str = "") -> EngineDivergence:
+    """``error`` from an engine built partway through a run, as the run's: its frame counted from the run's start
+    (``frames`` simulated before that engine was built) and ``where`` (words: which engine it was) before its
+    message. Raise it ``from error``."""
+    return EngineDivergence(f"{where}: {error.message}" if where else error.message, error.frame + frames, error.cause)
 
 
 class EngineBug(GaspError):

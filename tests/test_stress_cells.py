@@ -4,8 +4,8 @@
 Default tier: the probe's parts on bodies whose damage is set by hand as a landing leaves it (a crack through a bar,
 a crushed end, dust, no damage) and the intersection with Grady's cells. Slow tier: the donut shatter example
 (``examples/donut_shatter.toml``, the README donut landing on its edge) over landing speeds on both MPM engines: its
-pieces of 5 % or more never decrease from 4.43 to 7 m/s (with Grady's cells alone they fall from 4 to 3 at 5.5 m/s:
-the catch).
+pieces of 5 % or more never decrease from 4.43 to 10 m/s (with Grady's cells alone they fall from 4 to 3 at 5.5 m/s:
+the catch). A blow-up in the probe is reported at the run's frame.
 """
 from __future__ import annotations
 
@@ -88,11 +88,49 @@ def test_the_union_cuts_gradys_cells_by_the_parts():
             assert len(np.unique(cell[sel])) == 1
 
 
+class _Diverging:
+    """An engine that blows up at its second frame (the error contract's report, as the MPM engines raise it)."""
+
+    def __init__(self, n: int):
+        self.frame, self.n = 0, n
+
+    def step_frame(self):
+        from gasp_core.errors import EngineDivergence
+        self.frame += 1
+        if self.frame == 2:
+            raise EngineDivergence("3 point(s) non-finite (first index 0)", self.frame, "time step too large")
+
+    def damage(self):
+        return np.zeros(self.n)
+
+    def close(self):
+        self.closed = True
+
+
+def test_a_blow_up_in_the_probe_names_the_runs_frame_and_the_probe(monkeypatch):
+    """Round 104: the probe's engine counts from 1 at the frame the run stands at; its blow-up is the run's frame
+    plus its own, named as the probe's, and its engine is closed."""
+    from gasp_core.errors import EngineDivergence
+    from gasp_core.run import stress_cells
+    from gasp_core.seam import build
+    from gasp_core.testing.scenes_pieces import ball_setup
+    setup = ball_setup(4.0, 28)
+    engine = _Diverging(len(setup.x))
+    monkeypatch.setattr(build, "build_engine", lambda info, setup: engine)
+    with pytest.raises(EngineDivergence) as err:
+        stress_cells.probe(None, setup, 0.02, frame=5)
+    assert err.value.frame == 7 and "landing's probe" in str(err.value), str(err.value)
+    assert err.value.cause == "time step too large" and engine.closed
+    assert str(err.value).startswith("frame 7: in the landing's probe")
+
+
 SCENE = Path(__file__).resolve().parents[1] / "examples" / "donut_shatter.toml"
 #: The donut shatter example's landing speeds, m/s: 4.43 (its own; Grady's fragments do not fit it twice, no cells),
-#: 5.5 and 7 (laid out in cells).
-RING_SPEEDS = (4.43, 5.5, 7.0)
-FRAMES = 3
+#: 5.5, 7 and 10 (laid out in cells).
+RING_SPEEDS = (4.43, 5.5, 7.0, 10.0)
+#: Read at frame 6, once the count has stopped: at 10 m/s the largest piece parts at frame 5 (round 104: at frame 3 it
+#: read 6 pieces of 5 % against 7 at 7 m/s; at frames 5-6, 7 and 7, warp_mpm, taichi_mpm 7).
+FRAMES = 6
 
 
 def ring_pieces(engine: str, speed: float, out: Path) -> tuple[int, list]:

@@ -87,14 +87,16 @@ def landing(setup, x: np.ndarray, v: np.ndarray) -> dict | None:
     return {"speed": speed, "impact_point": np.array([*xm[foot, :2].mean(0), z0])}
 
 
-def lay(setup, x: np.ndarray, v: np.ndarray, seed: int = 0, info=None) -> tuple[np.ndarray, dict] | None:
+def lay(setup, x: np.ndarray, v: np.ndarray, seed: int = 0, info=None,
+        frame: int = 0) -> tuple[np.ndarray, dict] | None:
     """The cells of ``setup``'s body at positions ``x`` and velocities ``v`` (n, 3), when :func:`soft_brittle` and
     its :func:`landing` within the coming frame breaks it (:func:`break_check`): ``(cells, record)``, ``cells`` the
     ``SimSetup.cells`` (:func:`encode`) and ``record`` the split's figures (JSON-ready); None otherwise.
 
     With ``info`` (an engine's :class:`~gasp_core.seam.plugins.EngineInfo`; a run passes it) the landing is probed
     on it too (:mod:`gasp_core.run.stress_cells`): where its stress breaks the body into parts, the cells are Grady's
-    cut by those parts (``record["seeded"]`` "impact and stress"), else Grady's ("impact").
+    cut by those parts (``record["seeded"]`` "impact and stress"), else Grady's ("impact"); ``frame``, the run's
+    frame ``x`` stands at, numbers the probe's blow-up (:func:`gasp_core.run.stress_cells.probe`).
 
     Warns (UserWarning) when Grady's fragments are under :data:`MIN_CELL_DX` grid cells across: the cells are laid
     at that size instead, fewer and larger than Grady's (the pieces fall short of his count)."""
@@ -116,7 +118,7 @@ def lay(setup, x: np.ndarray, v: np.ndarray, seed: int = 0, info=None) -> tuple[
     cell = split_body(xm, mat, spacing, hit["impact_point"], count, size, seed)
     seeded = {"seeded": "impact"}
     if info is not None:
-        parts, rec = probe(info, setup.replace(x=np.array(xm), v=np.array(v, np.float64), C=None), spacing)
+        parts, rec = probe(info, setup.replace(x=np.array(xm), v=np.array(v, np.float64), C=None), spacing, frame)
         seeded = {"seeded": "impact" if parts is None else "impact and stress", **rec}
         if parts is not None:
             cell = union(xm, mat, spacing, cell, parts)
@@ -166,6 +168,7 @@ def frames(info, setup, stats, n_frames: int, start_frame: int = 0, state: dict 
     carry no engine state (no checkpoint: the engine is not the scene's; a resumed run starts before the landing and
     lays them again), while cells laid at the start are laid again on resuming. Errors as
     :class:`~gasp_core.seam.runner.EngineRun`."""
+    from gasp_core.errors import EngineDivergence, shifted
     from gasp_core.seam.engine import call_engine
     from gasp_core.seam.runner import EngineRun, FrameRecord
 
@@ -196,9 +199,12 @@ def frames(info, setup, stats, n_frames: int, start_frame: int = 0, state: dict 
                 break
         else:
             return
-    out = lay(setup, rec.x, v, info=info)
     k0 = rec.frame
+    out = lay(setup, rec.x, v, info=info, frame=k0)
     new = laid_at(k0, setup.replace(x=np.array(rec.x), v=v, C=None), out)
-    with EngineRun(info, new, stats, sleep=sleep) as run:
-        for r in run.frames(n_frames - k0):
-            yield FrameRecord(r.frame + k0, r.x, r.wall_s, None)
+    try:
+        with EngineRun(info, new, stats, sleep=sleep) as run:
+            for r in run.frames(n_frames - k0):
+                yield FrameRecord(r.frame + k0, r.x, r.wall_s, None)
+    except EngineDivergence as err:   # the rebuilt engine counts its frames from the landing
+        raise shifted(err, k0, f"the body laid out in cells after frame {k0}") from err

@@ -92,13 +92,15 @@ def cells_of_parts(x: np.ndarray, material: np.ndarray, p_mass: np.ndarray, lab:
     return part
 
 
-def probe(info, setup, spacing: float) -> tuple[np.ndarray | None, dict]:
+def probe(info, setup, spacing: float, frame: int = 0) -> tuple[np.ndarray | None, dict]:
     """Run ``setup`` (its cells unset) on engine ``info`` for up to :data:`PROBE_FRAMES` frames and read where the
     landing breaks it (module notes): ``(part, record)``, ``part`` as :func:`cells_of_parts` at the frame where the
     parts' count, once damage has begun, is the frame before's (None: fewer than two parts) and ``record`` the
     probe's figures (``probe_frames``; ``parts``: the parts' shares of the mass; ``broken``: the share of the material
-    broken). ``spacing``: the body's fill spacing, m. The engine is closed after; its errors are raised as the run's
-    (:func:`gasp_core.seam.engine.call_engine`)."""
+    broken). ``spacing``: the body's fill spacing, m; ``frame``: the run's frame ``setup`` stands at. The engine is
+    closed after; its errors are raised as the run's (:func:`gasp_core.seam.engine.call_engine`), a blow-up
+    (:class:`~gasp_core.errors.EngineDivergence`) at the run's frame it was probing, named as the probe's."""
+    from gasp_core.errors import EngineDivergence, shifted
     from gasp_core.seam.build import build_engine
     from gasp_core.seam.engine import call_engine
     mat = setup.material_mask
@@ -116,6 +118,8 @@ def probe(info, setup, spacing: float) -> tuple[np.ndarray | None, dict]:
             if n == last:
                 break
             last = n
+    except EngineDivergence as err:
+        raise shifted(err, frame, "in the landing's probe (the body run on without its cells)") from err
     finally:
         e.close()
     shares = [] if part is None else np.bincount(part[mat], weights=setup.p_mass[mat]) / setup.p_mass[mat].sum()
