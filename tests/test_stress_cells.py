@@ -133,14 +133,15 @@ RING_SPEEDS = (4.43, 5.5, 7.0, 10.0)
 FRAMES = 6
 
 
-def ring_pieces(engine: str, speed: float, out: Path) -> tuple[int, list]:
-    """The donut shatter example thrown at ``speed`` m/s with the cells on: its pieces of 5 % or more at frame
-    :data:`FRAMES` and the run's ``fragments`` records."""
+def ring_pieces(engine: str, speed: float, out: Path, n_grid: int = 64) -> tuple[int, list]:
+    """The donut shatter example thrown at ``speed`` m/s on ``n_grid`` (its own: 64) with the cells on: its pieces
+    of 5 % or more at frame :data:`FRAMES` and the run's ``fragments`` records."""
     from gasp_core.run.pipeline import simulate_scene
     from gasp_core.scene.spec import load_scene
     text = SCENE.read_text().replace(
         "velocity = [0.0, 0.0, -4.43]", f"velocity = [0.0, 0.0, {-speed}]")
     text = text.replace('file = "data/', f'file = "{SCENE.parent / "data"}/')
+    text = text.replace("n_grid = 64 ", f"n_grid = {n_grid} ")
     path = out.with_suffix(".toml")
     path.write_text(text)
     simulate_scene(load_scene(path), out, n_frames=FRAMES, engine=engine, quiet=True)
@@ -149,10 +150,10 @@ def ring_pieces(engine: str, speed: float, out: Path) -> tuple[int, list]:
     return sum(p >= 0.05 * total for p in last["piece_mass"]), run.get("fragments", [])
 
 
-def ring_failures(engine: str, tmp_path: Path) -> list[str]:
+def ring_failures(engine: str, tmp_path: Path, n_grid: int = 64) -> list[str]:
     counts, bad = [], []
     for v in RING_SPEEDS:
-        n, frags = ring_pieces(engine, v, tmp_path / f"ring_{v}")
+        n, frags = ring_pieces(engine, v, tmp_path / f"ring_{v}", n_grid)
         counts.append(n)
         if v > 4.43 and (not frags or frags[0]["seeded"] != "impact and stress"):
             bad.append(f"{v} m/s: not seeded by the stress ({frags})")
@@ -166,6 +167,16 @@ def ring_failures(engine: str, tmp_path: Path) -> list[str]:
 def test_the_rings_pieces_never_decrease_with_speed(engine, tmp_path):
     pytest.importorskip(f"gasp_{engine}")
     assert ring_failures(engine, tmp_path) == []
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="not met (round 104): on n_grid 48 the ring's pieces of 5 % at frame 6 are "
+                   "4, 6, 5, 7 at 4.43, 5.5, 7, 10 m/s (warp_mpm): at 7 m/s one cell holds 40 % of the mass. The "
+                   "count of one draw of the cells moves by 1-2 with the draw: at 5.5 / 7 m/s draws 0-3 give 6 / 5, "
+                   "6 / 6, 5 / 6, 4 / 8 (docs/fracture.md \"Round 104\")")
+def test_the_rings_pieces_never_decrease_with_speed_on_n_grid_48(tmp_path):
+    pytest.importorskip("gasp_warp_mpm")
+    assert ring_failures("warp_mpm", tmp_path, 48) == []
 
 
 @pytest.mark.slow
@@ -212,3 +223,4 @@ def test_a_torus_rings_pieces_never_decrease_with_speed(engine):
 def test_the_torus_check_catches_gradys_cells_alone():
     pytest.importorskip("gasp_warp_mpm")
     assert torus_failures("warp_mpm", probed=False)[1] != []
+
