@@ -3,10 +3,11 @@ the cells as the body's flaws (each point's uniform drawn once, ordered by ``-ln
 2006: a faster landing keeps the slower one's seeds) keeps the count rising with speed better than the run's one-off
 draw (``numpy.random.Generator.choice``, the code of round 103). ``docs/fracture.md`` "Round 104".
 
-    python benchmarks/studies/cell_draws104.py --scheme old|flaws --case ball28|ball32|ring48 [--draws 5] --out F
+    python benchmarks/studies/cell_draws104.py --scheme old|flaws --case ball28|ball32|ring48|SHAPE@N [--draws 5] --out F
 
 ``ball28``/``ball32``: the pieces family's ball (``scenes_pieces.ball_setup``) at 4, 7, 10 m/s, pieces of 5 % at
-frame 30 (``counted_run``); ``ring48``: ``examples/donut_shatter.toml`` on n_grid 48 at 5.5 and 7 m/s, pieces of 5 %
+frame 30 (``counted_run``); ``SHAPE@N``: ``scenes_pieces.shape_setup``'s ``SHAPE`` (``cube:0.16``, ``ball:0.14``)
+on n_grid ``N``, the same way; ``ring48``: ``examples/donut_shatter.toml`` on n_grid 48 at 5.5 and 7 m/s, pieces of 5 %
 at frame 8 (the run's tracker read at that frame). warp_mpm; cells laid as a run lays them (probed). Appends one JSON
 line per draw to ``--out``. About 1 minute a draw for a ball, 2.5 for the ring (2 cores).
 """
@@ -72,7 +73,7 @@ def pieces_at(info, s, frames: int) -> int:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scheme", choices=("old", "flaws"), required=True)
-    ap.add_argument("--case", choices=("ball28", "ball32", "ring48"), required=True)
+    ap.add_argument("--case", required=True, help="ball28, ball32, ring48 or SHAPE@N (module docstring)")
     ap.add_argument("--draws", type=int, default=5)
     ap.add_argument("--out", required=True, help="a JSON-lines file (appended to)")
     a = ap.parse_args(argv)
@@ -84,7 +85,8 @@ def main(argv=None) -> int:
         setups = ring_setups(speeds, 48)
     else:
         speeds, frames = (4.0, 7.0, 10.0), 30
-        setups = [shape_setup("ball", v, int(a.case[4:])) for v in speeds]
+        shape, grid = a.case.split("@") if "@" in a.case else ("ball", a.case[4:])
+        setups = [shape_setup(shape, v, int(grid)) for v in speeds]
     for k in range(a.draws):
         row = []
         for s0 in setups:
