@@ -128,16 +128,23 @@ def _glued(monkeypatch, name: str) -> None:
         monkeypatch.setattr(wc, "cell_launches", lambda eng, Ft: (real(eng, Ft)[0], []))
 
 
+#: The landing the parting is checked on, m/s, on n_grid 28: every draw of its cells parts there (round 104, warp_mpm,
+#: draws 0-4: relative speed 0.84, 0.70, 0.85, 0.60, 0.47 m/s, 3-6 pieces of 1 %); at 7 m/s, round 102's case, two draws
+#: of five part (0.44 and 0.34; the others 0.18-0.24, one piece), so it passed on its draw alone.
+PART_SPEED = 10.0
+
+
 @pytest.mark.parametrize("name", _names())
 def test_the_cells_part_after_the_landing(name):
-    rel, pieces = cell_motion(name, 7.0, 28)
+    rel, pieces = cell_motion(name, PART_SPEED, 28)
     assert rel >= PARTED and pieces[-1] >= 2, (rel, pieces)
 
 
 @pytest.mark.parametrize("name", _names())
 def test_catch_an_engine_whose_cells_never_part(name, monkeypatch):
+    """Glued: 0.036 m/s and one piece on both engines."""
     _glued(monkeypatch, name)
-    rel, pieces = cell_motion(name, 7.0, 28)
+    rel, pieces = cell_motion(name, PART_SPEED, 28)
     assert rel <= HELD and pieces[-1] == 1, (rel, pieces)
 
 
