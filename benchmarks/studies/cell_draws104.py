@@ -1,9 +1,13 @@
-"""Issue 66 round 104: how the pieces of 5 % of one run move with the draw of its Grady's cells, and whether drawing
-the cells as the body's flaws (each point's uniform drawn once, ordered by ``-ln(1 - u) / w``, Efraimidis & Spirakis
-2006: a faster landing keeps the slower one's seeds) keeps the count rising with speed better than the run's one-off
-draw (``numpy.random.Generator.choice``, the code of round 103). ``docs/fracture.md`` "Round 104".
+"""Issue 66 round 104: how the pieces of 5 % of one run move with the draw of its Grady's cells, under three rules for
+the seeds: ``run`` (the code as it stands since round 103: drawn once, weighted to the impact), ``flaws`` (each point's
+uniform drawn once, ordered by ``-ln(1 - u) / w``, Efraimidis & Spirakis 2006: a faster landing keeps the slower one's
+seeds) and ``uniform`` (no weight to the impact). ``docs/fracture.md`` "Round 104". The rows of
+``results/cell_draws104.jsonl`` labelled ``uniform_beside_parts`` came from a one-off patch of
+``gasp_core.run.grady_cells.lay`` (the probe run first, and Grady's seeds drawn with no weight to the impact where it
+found two parts or more; not kept: on the example's n_grid 64 it fell from 6 to 5 pieces at 7 m/s).
 
-    python benchmarks/studies/cell_draws104.py --scheme old|flaws --case ball28|ball32|ring48|SHAPE@N [--draws 5] --out F
+    python benchmarks/studies/cell_draws104.py --scheme run|flaws|uniform --case ball28|ball32|ring48|SHAPE@N
+        [--draws 5] [--first 0] --out F
 
 ``ball28``/``ball32``: the pieces family's ball (``scenes_pieces.ball_setup``) at 4, 7, 10 m/s, pieces of 5 % at
 frame 30 (``counted_run``); ``SHAPE@N``: ``scenes_pieces.shape_setup``'s ``SHAPE`` (``cube:0.16``, ``ball:0.14``)
@@ -45,6 +49,16 @@ def split_flaws(x, material, spacing, impact, count, size, seed=0):
     return fragments.connected_cells(x, material, spacing, out)
 
 
+def split_uniform(x, material, spacing, impact, count, size, seed=0):
+    """``fragments.split_body`` with its seeds drawn uniformly over the body's points (no weight to the impact)."""
+    x = np.asarray(x, np.float64)
+    mat = np.flatnonzero(material)
+    seeds = np.random.default_rng(seed).choice(len(mat), size=min(count, len(mat)), replace=False)
+    out = np.zeros(len(x), np.int64)
+    out[mat] = cKDTree(x[mat][seeds]).query(x[mat])[1]
+    return fragments.connected_cells(x, material, spacing, out)
+
+
 def ring_setups(speeds, n_grid: int):
     from gasp_core.prepare.scene import prepare_scene
     from gasp_core.scene.spec import load_scene
@@ -72,13 +86,14 @@ def pieces_at(info, s, frames: int) -> int:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--scheme", choices=("old", "flaws"), required=True)
+    ap.add_argument("--scheme", choices=("run", "flaws", "uniform"), required=True)
     ap.add_argument("--case", required=True, help="ball28, ball32, ring48 or SHAPE@N (module docstring)")
     ap.add_argument("--draws", type=int, default=5)
+    ap.add_argument("--first", type=int, default=0, help="the first draw")
     ap.add_argument("--out", required=True, help="a JSON-lines file (appended to)")
     a = ap.parse_args(argv)
-    if a.scheme == "flaws":
-        grady_cells.split_body = split_flaws
+    if a.scheme != "run":
+        grady_cells.split_body = split_flaws if a.scheme == "flaws" else split_uniform
     info = engines()["warp_mpm"]
     if a.case == "ring48":
         speeds, frames = (5.5, 7.0), 8
@@ -87,7 +102,7 @@ def main(argv=None) -> int:
         speeds, frames = (4.0, 7.0, 10.0), 30
         shape, grid = a.case.split("@") if "@" in a.case else ("ball", a.case[4:])
         setups = [shape_setup(shape, v, int(grid)) for v in speeds]
-    for k in range(a.draws):
+    for k in range(a.first, a.first + a.draws):
         row = []
         for s0 in setups:
             with warnings.catch_warnings():
