@@ -104,6 +104,10 @@ def test_the_brittle_readme_donut_from_1_m_lands_and_comes_apart(engine, contact
 
 
 @pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="the scene no longer tells the two steps apart (round 104, taichi_mpm): at the "
+                   "old rule's step it lands (largest energy 0.450 of the start's, 79,396 points out of the grid and "
+                   "dropped, issue 66 item 6's rule) as at the rule's step (0.489, 77,398); it diverged before the "
+                   "points that leave were dropped and the cells laid at the landing")
 def test_at_the_old_rules_step_the_same_landing_diverges(tmp_path):
     needs_package("gasp_taichi_mpm")
     # cfl 0.8 dx / max(c_p, v_max) = 0.8 x 6.54 mm / 11.6 m/s: (c_p + |v|) dt / dx 1.11 before it touches
