@@ -131,8 +131,8 @@ def lay(setup, x: np.ndarray, v: np.ndarray, seed: int = 0, info=None,
                       f"instead of {chk['count']}, fewer and larger than Grady's; raise n_grid to resolve them",
                       UserWarning, stacklevel=2)
     record = {"speed": round(hit["speed"], 4), **seeded,
-              "impact_point": [round(float(c), 5) for c in hit["impact_point"]], "cells": int(cell.max() + 1), "size": chk["size"], "size_dx": round(size_dx, 3),
-              "band": round(float(band[mat].mean()), 4)}
+              "impact_point": [round(float(c), 5) for c in hit["impact_point"]], "cells": int(cell.max() + 1),
+              "size": chk["size"], "size_dx": round(size_dx, 3), "band": round(float(band[mat].mean()), 4)}
     return encode(cell, band), record
 
 
